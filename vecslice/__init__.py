@@ -1,0 +1,38 @@
+"""vecslice: a vectorised, array-programming slicer for 3D printing.
+
+Triangle meshes in, per-layer int64-micron polygons out, following CuraEngine's
+design (layer schedules, simplification, layer parts) but working on whole arrays.
+"""
+
+from vecslice.errors import (
+    InputTypeError,
+    InputValueError,
+    LayoutError,
+    MeshFileError,
+    SettingsError,
+    StorageFileError,
+    VecsliceError,
+    VecsliceWarning,
+)
+from vecslice.paths import LayerPaths, Paths
+from vecslice.settings import SliceSettings
+from vecslice.units import COORD_LIMIT, to_microns
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "COORD_LIMIT",
+    "InputTypeError",
+    "InputValueError",
+    "LayerPaths",
+    "LayoutError",
+    "MeshFileError",
+    "Paths",
+    "SettingsError",
+    "SliceSettings",
+    "StorageFileError",
+    "VecsliceError",
+    "VecsliceWarning",
+    "__version__",
+    "to_microns",
+]

@@ -1,0 +1,51 @@
+"""The vecslice error hierarchy.
+
+Every error vecslice raises derives from :class:`VecsliceError` and also from the
+builtin that fits (``ValueError``, ``TypeError`` or ``OSError``), so generic
+``except ValueError`` handlers keep working.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "InputTypeError",
+    "InputValueError",
+    "LayoutError",
+    "MeshFileError",
+    "SettingsError",
+    "StorageFileError",
+    "VecsliceError",
+    "VecsliceWarning",
+]
+
+
+class VecsliceError(Exception):
+    """Base class for every vecslice error."""
+
+
+class InputValueError(VecsliceError, ValueError):
+    """An argument has the right type but a bad value (NaN, out of range, empty...)."""
+
+
+class InputTypeError(VecsliceError, TypeError):
+    """An argument has the wrong type or dtype."""
+
+
+class LayoutError(InputValueError):
+    """Invalid coords/offsets layout of ragged arrays."""
+
+
+class SettingsError(InputValueError):
+    """An invalid slicing setting (non-positive height, unknown option...)."""
+
+
+class MeshFileError(VecsliceError, OSError):
+    """A mesh file is missing, unreadable or not a mesh."""
+
+
+class StorageFileError(VecsliceError, OSError):
+    """A file is not a saved vecslice model."""
+
+
+class VecsliceWarning(UserWarning):
+    """Base class for every vecslice warning."""

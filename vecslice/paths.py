@@ -1,0 +1,223 @@
+"""Ragged containers of rings: :class:`Paths` and :class:`LayerPaths`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from kernels.rings import ring_area2
+from vecslice._validate import as_coords, as_offsets
+
+__all__ = ["LayerPaths", "Paths"]
+
+
+def _freeze(*arrays: NDArray[np.int64]) -> None:
+    for a in arrays:
+        a.flags.writeable = False
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Paths:
+    """Rings or polylines in one flat buffer.
+
+    Ring ``i`` is ``coords[ring_offsets[i]:ring_offsets[i + 1]]``; closed rings do not
+    repeat their first vertex.
+
+    Attributes
+    ----------
+    coords : ndarray of shape (N, 2), int64
+        All vertices in µm.
+    ring_offsets : ndarray of shape (R + 1,), int64
+        Start of each ring in ``coords``, then ``N``.
+
+    Examples
+    --------
+    >>> p = Paths([[0, 0], [10, 0], [10, 10], [0, 10]], [0, 4])
+    >>> len(p), p.ring(0).shape, p.area2().tolist()
+    (1, (4, 2), [200])
+    """
+
+    coords: NDArray[np.int64]
+    ring_offsets: NDArray[np.int64]
+
+    def __init__(self, coords: ArrayLike, ring_offsets: ArrayLike) -> None:
+        c = as_coords(coords, "coords")
+        o = as_offsets(ring_offsets, c.shape[0], "ring_offsets")
+        if c is coords:
+            c = c.copy()
+        if o is ring_offsets:
+            o = o.copy()
+        _freeze(c, o)
+        object.__setattr__(self, "coords", c)
+        object.__setattr__(self, "ring_offsets", o)
+
+    @classmethod
+    def from_rings(cls, rings: list[ArrayLike]) -> Paths:
+        """Build from a list of (n, 2) integer arrays."""
+        arrs = [np.asarray(r).reshape(-1, 2) for r in rings]
+        lens = np.array([len(r) for r in arrs], dtype=np.int64)
+        offsets = np.zeros(len(arrs) + 1, dtype=np.int64)
+        np.cumsum(lens, out=offsets[1:])
+        coords = (
+            np.concatenate(arrs) if arrs else np.empty((0, 2), dtype=np.int64)
+        )
+        return cls(coords, offsets)
+
+    def __len__(self) -> int:
+        return int(self.ring_offsets.shape[0] - 1)
+
+    @property
+    def n_rings(self) -> int:
+        """Number of rings ``R``."""
+        return len(self)
+
+    def ring(self, i: int) -> NDArray[np.int64]:
+        """Vertices of ring ``i`` as a read-only (n, 2) view."""
+        return self.coords[self.ring_offsets[i] : self.ring_offsets[i + 1]]
+
+    def rings(self) -> list[NDArray[np.int64]]:
+        """All rings as a list of (n, 2) views."""
+        return [self.ring(i) for i in range(len(self))]
+
+    def ring_lengths(self) -> NDArray[np.int64]:
+        """Vertex count of each ring, shape (R,)."""
+        return np.diff(self.ring_offsets)
+
+    def area2(self) -> NDArray[np.int64]:
+        """Twice the signed area of each ring in µm² (exact; CCW > 0)."""
+        return ring_area2(self.coords, self.ring_offsets)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the arrays."""
+        return int(self.coords.nbytes + self.ring_offsets.nbytes)
+
+    def __repr__(self) -> str:
+        return f"Paths({len(self)} rings, {self.coords.shape[0]} vertices)"
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class LayerPaths:
+    """Rings grouped by layer.
+
+    Layer ``k`` holds rings ``layer_offsets[k]:layer_offsets[k + 1]``; ring ``i`` is
+    ``coords[ring_offsets[i]:ring_offsets[i + 1]]``.
+
+    Attributes
+    ----------
+    coords : ndarray of shape (N, 2), int64
+        All vertices in µm.
+    ring_offsets : ndarray of shape (R + 1,), int64
+        Ring starts in ``coords``.
+    layer_offsets : ndarray of shape (L + 1,), int64
+        Layer starts in the rings.
+    open : LayerPaths or None
+        Chains that did not close (open polylines), with the same layers; ``None``
+        on a LayerPaths that itself holds open chains.
+
+    Examples
+    --------
+    >>> lp = LayerPaths([[0, 0], [10, 0], [0, 10]], [0, 3], [0, 0, 1])
+    >>> lp.n_layers, [len(x) for x in lp.layer(0)], [len(x) for x in lp.layer(1)]
+    (2, [], [3])
+    """
+
+    coords: NDArray[np.int64]
+    ring_offsets: NDArray[np.int64]
+    layer_offsets: NDArray[np.int64]
+    open: LayerPaths | None
+
+    def __init__(
+        self,
+        coords: ArrayLike,
+        ring_offsets: ArrayLike,
+        layer_offsets: ArrayLike,
+        open: LayerPaths | None = None,  # noqa: A002 - the contract's name
+    ) -> None:
+        c = as_coords(coords, "coords")
+        r = as_offsets(ring_offsets, c.shape[0], "ring_offsets")
+        lo = as_offsets(layer_offsets, r.shape[0] - 1, "layer_offsets")
+        c, r, lo = (x.copy() if x is y else x for x, y in
+                    ((c, coords), (r, ring_offsets), (lo, layer_offsets)))
+        _freeze(c, r, lo)
+        if open is not None and open.n_layers != lo.shape[0] - 1:
+            from vecslice.errors import LayoutError
+
+            raise LayoutError(
+                f"`open` must have {lo.shape[0] - 1} layers; got {open.n_layers}"
+            )
+        object.__setattr__(self, "coords", c)
+        object.__setattr__(self, "ring_offsets", r)
+        object.__setattr__(self, "layer_offsets", lo)
+        object.__setattr__(self, "open", open)
+
+    @classmethod
+    def empty(cls, n_layers: int) -> LayerPaths:
+        """A LayerPaths with ``n_layers`` empty layers."""
+        return cls(
+            np.empty((0, 2), np.int64), np.zeros(1, np.int64),
+            np.zeros(n_layers + 1, np.int64),
+        )
+
+    @property
+    def n_layers(self) -> int:
+        """Number of layers ``L``."""
+        return int(self.layer_offsets.shape[0] - 1)
+
+    @property
+    def n_rings(self) -> int:
+        """Number of rings ``R`` over all layers."""
+        return int(self.ring_offsets.shape[0] - 1)
+
+    def __len__(self) -> int:
+        return self.n_layers
+
+    def layer(self, k: int) -> list[NDArray[np.int64]]:
+        """Rings of layer ``k`` as a list of read-only (n, 2) views."""
+        if not -self.n_layers <= k < self.n_layers:
+            from vecslice.errors import InputValueError
+
+            raise InputValueError(
+                f"`k` must be a layer index in [0, {self.n_layers}); got {k}"
+            )
+        k %= self.n_layers
+        r0, r1 = self.layer_offsets[k], self.layer_offsets[k + 1]
+        ro = self.ring_offsets
+        return [self.coords[ro[i] : ro[i + 1]] for i in range(r0, r1)]
+
+    def paths(self) -> Paths:
+        """All rings of all layers as one :class:`Paths` (layers flattened)."""
+        return Paths(self.coords, self.ring_offsets)
+
+    def rings_per_layer(self) -> NDArray[np.int64]:
+        """Number of rings in each layer, shape (L,)."""
+        return np.diff(self.layer_offsets)
+
+    def ring_layer(self) -> NDArray[np.int64]:
+        """Layer index of each ring, shape (R,)."""
+        return np.repeat(np.arange(self.n_layers, dtype=np.int64), self.rings_per_layer())
+
+    def area2(self) -> NDArray[np.int64]:
+        """Twice the signed area of each ring in µm² (exact; CCW > 0)."""
+        return ring_area2(self.coords, self.ring_offsets)
+
+    def layer_area2(self) -> NDArray[np.int64]:
+        """Twice the signed area summed over the rings of each layer, shape (L,)."""
+        out = np.zeros(self.n_layers, dtype=np.int64)
+        np.add.at(out, self.ring_layer(), self.area2())
+        return out
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the arrays, open chains included."""
+        own = self.coords.nbytes + self.ring_offsets.nbytes + self.layer_offsets.nbytes
+        return int(own + (self.open.nbytes if self.open is not None else 0))
+
+    def __repr__(self) -> str:
+        n_open = self.open.n_rings if self.open is not None else 0
+        return (
+            f"LayerPaths({self.n_layers} layers, {self.n_rings} rings, "
+            f"{self.coords.shape[0]} vertices, {n_open} open chains)"
+        )

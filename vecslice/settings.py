@@ -1,0 +1,78 @@
+"""Slicing settings (CuraEngine's names and defaults, all lengths in int64 µm)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Literal
+
+from vecslice._validate import check_int, check_option
+from vecslice.errors import InputTypeError
+
+__all__ = ["SLICING_TOLERANCES", "SliceSettings"]
+
+SLICING_TOLERANCES = ("middle", "inclusive", "exclusive")
+
+
+@dataclass(frozen=True, slots=True)
+class SliceSettings:
+    """Settings of :func:`vecslice.slice_mesh`, validated on construction.
+
+    Parameters
+    ----------
+    layer_height : int, default 100
+        Layer thickness in µm (Cura ``layer_height``), ``> 0``.
+    initial_layer_height : int, default 300
+        First layer thickness in µm (Cura ``layer_height_0``), ``> 0``.
+    slicing_tolerance : {'middle', 'inclusive', 'exclusive'}, default 'middle'
+        Where each layer is cut: its middle; its bottom then unioned with the next
+        layer; or its bottom then intersected with the next layer.
+    max_resolution : int, default 500
+        Edges shorter than this (µm) may be removed by simplification.
+    max_deviation : int, default 25
+        Largest distance (µm) a simplified contour may move away from the raw one.
+    max_area_deviation : int, default 50000
+        Largest extrusion-area change (µm²) for variable-width paths.
+    minimum_polygon_circumference : int, default 1000
+        Loops with a shorter perimeter (µm) are dropped before simplification.
+    union_overlapping_volumes : bool, default True
+        Union the loops of a layer with the NonZero rule (overlapping bodies merge);
+        ``False`` uses EvenOdd.
+
+    Raises
+    ------
+    SettingsError
+        A height is not positive, a threshold is negative or the tolerance is unknown.
+    """
+
+    layer_height: int = 100
+    initial_layer_height: int = 300
+    slicing_tolerance: Literal["middle", "inclusive", "exclusive"] = "middle"
+    max_resolution: int = 500
+    max_deviation: int = 25
+    max_area_deviation: int = 50000
+    minimum_polygon_circumference: int = 1000
+    union_overlapping_volumes: bool = True
+
+    def __post_init__(self) -> None:
+        limit = 2**30
+        for name, minimum in (("layer_height", 1), ("initial_layer_height", 1)):
+            v = check_int(getattr(self, name), name, minimum=minimum, maximum=limit)
+            object.__setattr__(self, name, v)
+        for name in ("max_resolution", "max_deviation", "minimum_polygon_circumference"):
+            v = check_int(getattr(self, name), name, minimum=0, maximum=limit)
+            object.__setattr__(self, name, v)
+        v = check_int(self.max_area_deviation, "max_area_deviation", minimum=0,
+                      maximum=2**62)
+        object.__setattr__(self, "max_area_deviation", v)
+        check_option(self.slicing_tolerance, SLICING_TOLERANCES, "slicing_tolerance")
+        if not isinstance(self.union_overlapping_volumes, bool):
+            raise InputTypeError(
+                "`union_overlapping_volumes` must be a bool; got "
+                f"{type(self.union_overlapping_volumes).__name__} "
+                f"{self.union_overlapping_volumes!r}"
+            )
+
+    @classmethod
+    def option_names(cls) -> tuple[str, ...]:
+        """Names of all settings, in declaration order."""
+        return tuple(f.name for f in fields(cls))
