@@ -1,9 +1,9 @@
 """Kernels over rings of a ragged (coords, ring_offsets) array."""
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
-from ._types import I64_1D, I64_1D_OUT, I64_2D
+from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 
 
 @njit(I64_1D_OUT(I64_2D, I64_1D), cache=True, nogil=True)
@@ -26,3 +26,48 @@ def ring_area2(coords, ring_offsets):
                 acc += ax * by - ay * bx
         out[r] = acc
     return out
+
+
+@njit(
+    types.Tuple((I64_2D_OUT, I64_1D_OUT, I64_1D_OUT))(
+        I64_2D, I64_1D, I64_1D, I64_1D, I64
+    ),
+    cache=True, nogil=True,
+)
+def group_rings(points, vertex_ids, ring_offsets, ring_key, n_keys):
+    """Gather ring vertices from ``points`` and group the rings by key (stable).
+
+    Ring ``i`` has vertices ``points[vertex_ids[ring_offsets[i]:ring_offsets[i+1]]]``
+    and key ``ring_key[i]`` in ``[0, n_keys)``. Returns ``(coords, new_ring_offsets,
+    key_offsets)``: rings with key ``k`` are ``key_offsets[k]:key_offsets[k + 1]``,
+    in their original relative order.
+
+    Preconditions: offsets valid; 0 <= vertex_ids < len(points); 0 <= ring_key <
+    n_keys.
+    """
+    n_rings = ring_offsets.shape[0] - 1
+    key_offsets = np.zeros(n_keys + 1, dtype=np.int64)
+    for r in range(n_rings):
+        key_offsets[ring_key[r] + 1] += 1
+    for k in range(n_keys):
+        key_offsets[k + 1] += key_offsets[k]
+    fill = key_offsets[:-1].copy()
+    order = np.empty(n_rings, dtype=np.int64)
+    for r in range(n_rings):
+        order[fill[ring_key[r]]] = r
+        fill[ring_key[r]] += 1
+    new_offsets = np.empty(n_rings + 1, dtype=np.int64)
+    new_offsets[0] = 0
+    for i in range(n_rings):
+        r = order[i]
+        new_offsets[i + 1] = new_offsets[i] + ring_offsets[r + 1] - ring_offsets[r]
+    coords = np.empty((new_offsets[n_rings], 2), dtype=np.int64)
+    for i in range(n_rings):
+        r = order[i]
+        j = new_offsets[i]
+        for v in range(ring_offsets[r], ring_offsets[r + 1]):
+            p = vertex_ids[v]
+            coords[j, 0] = points[p, 0]
+            coords[j, 1] = points[p, 1]
+            j += 1
+    return coords, new_offsets, key_offsets

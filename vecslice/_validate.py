@@ -40,7 +40,9 @@ def as_int_array(
     floats, bools and objects are rejected with an :class:`InputTypeError`.
     """
     if isinstance(value, (str, bytes)) or value is None:
-        raise InputTypeError(f"`{name}` must be an integer array; got {_describe(value)}")
+        raise InputTypeError(
+            f"`{name}` must be an integer array; got {_describe(value)}"
+        )
     try:
         a = np.asarray(value)
     except (TypeError, ValueError) as exc:  # ragged nested lists
@@ -77,7 +79,9 @@ def check_coord_range(a: NDArray[np.int64], name: str) -> None:
         )
 
 
-def as_coords(value: ArrayLike, name: str = "coords", *, dim: int = 2) -> NDArray[np.int64]:
+def as_coords(
+    value: ArrayLike, name: str = "coords", *, dim: int = 2
+) -> NDArray[np.int64]:
     """Coerce ``value`` to (N, dim) int64 µm coordinates within ``COORD_LIMIT``."""
     a = as_int_array(value, name, ndim=2, width=dim)
     check_coord_range(a, name)

@@ -134,7 +134,7 @@ class LayerPaths:
         coords: ArrayLike,
         ring_offsets: ArrayLike,
         layer_offsets: ArrayLike,
-        open: LayerPaths | None = None,  # noqa: A002 - the contract's name
+        open: LayerPaths | None = None,
     ) -> None:
         c = as_coords(coords, "coords")
         r = as_offsets(ring_offsets, c.shape[0], "ring_offsets")
@@ -152,6 +152,23 @@ class LayerPaths:
         object.__setattr__(self, "ring_offsets", r)
         object.__setattr__(self, "layer_offsets", lo)
         object.__setattr__(self, "open", open)
+
+    @classmethod
+    def _trusted(
+        cls,
+        coords: NDArray[np.int64],
+        ring_offsets: NDArray[np.int64],
+        layer_offsets: NDArray[np.int64],
+        open: LayerPaths | None = None,
+    ) -> LayerPaths:
+        """Wrap arrays that a kernel produced, already valid: no checks, no copies."""
+        self = object.__new__(cls)
+        _freeze(coords, ring_offsets, layer_offsets)
+        object.__setattr__(self, "coords", coords)
+        object.__setattr__(self, "ring_offsets", ring_offsets)
+        object.__setattr__(self, "layer_offsets", layer_offsets)
+        object.__setattr__(self, "open", open)
+        return self
 
     @classmethod
     def empty(cls, n_layers: int) -> LayerPaths:
@@ -197,7 +214,8 @@ class LayerPaths:
 
     def ring_layer(self) -> NDArray[np.int64]:
         """Layer index of each ring, shape (R,)."""
-        return np.repeat(np.arange(self.n_layers, dtype=np.int64), self.rings_per_layer())
+        layers = np.arange(self.n_layers, dtype=np.int64)
+        return np.repeat(layers, self.rings_per_layer())
 
     def area2(self) -> NDArray[np.int64]:
         """Twice the signed area of each ring in µm² (exact; CCW > 0)."""

@@ -58,7 +58,9 @@ class SliceSettings:
         for name, minimum in (("layer_height", 1), ("initial_layer_height", 1)):
             v = check_int(getattr(self, name), name, minimum=minimum, maximum=limit)
             object.__setattr__(self, name, v)
-        for name in ("max_resolution", "max_deviation", "minimum_polygon_circumference"):
+        for name in (
+            "max_resolution", "max_deviation", "minimum_polygon_circumference"
+        ):
             v = check_int(getattr(self, name), name, minimum=0, maximum=limit)
             object.__setattr__(self, name, v)
         v = check_int(self.max_area_deviation, "max_area_deviation", minimum=0,

@@ -10,7 +10,7 @@ from vecslice.errors import InputValueError
 __all__ = ["COORD_LIMIT", "to_microns"]
 
 COORD_LIMIT = 2**30
-"""Exclusive bound on |coordinate| in µm: every product of two differences fits int64."""
+"""Exclusive bound on |coordinate| in µm (products of differences fit int64)."""
 
 
 def to_microns(mm: ArrayLike, *, name: str = "mm") -> NDArray[np.int64]:

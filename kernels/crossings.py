@@ -1,0 +1,113 @@
+"""Kernels computing (edge, layer) crossing points and (face, layer) segments.
+
+The layer ranges are computed with numpy beforehand (one ``searchsorted`` per
+vertex, counts, cumulative sums); these kernels fill the per-crossing and per-segment
+arrays in one pass, each edge or face writing its own slice (count, scan, fill).
+"""
+
+import numpy as np
+from numba import njit, prange, types
+
+from ._types import I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+
+# (down edge, up edge) for each above-code (bit j set: vertex j above the plane).
+# The down edge j runs from an above vertex j to a below vertex j + 1, the up edge the
+# other way round; a segment runs from the down crossing to the up crossing, which
+# makes outer loops counter-clockwise seen from +z for outward-wound faces.
+_DOWN = (0, 0, 1, 1, 2, 0, 2, 0)
+_UP = (0, 2, 0, 2, 1, 1, 0, 0)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _round_div(num, den):
+    """Num / den rounded to nearest, ties away from zero (den > 0; Python floor //)."""
+    q = num // den
+    r2 = 2 * (num - q * den)
+    if r2 > den or (r2 == den and num >= 0):
+        q += 1
+    return q
+
+
+@njit(
+    I64_2D_OUT(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D),
+    cache=True, nogil=True, parallel=True,
+)
+def crossing_points(vertices, edge_vertices, vert_layer, edge_offsets, z):
+    """The crossing point of every edge with every plane it crosses.
+
+    Edge ``e`` (oriented from its lower to its upper end a -> b) crosses the planes
+    ``k`` with ``za <= z[k] < zb``; its crossings are rows
+    ``edge_offsets[e]:edge_offsets[e + 1]`` of the result, in increasing ``k``. The
+    point is ``a.xy + (b.xy - a.xy) * (z - za) / (zb - za)`` rounded once, half away
+    from zero, in exact integer arithmetic.
+
+    Preconditions: ``z`` sorted; ``vert_layer[v]`` is the number of planes strictly
+    below vertex ``v``; ``edge_offsets`` is the cumulative sum of
+    ``|vert_layer[a] - vert_layer[b]|``; |coordinates| < 2**30.
+    """
+    n_edges = edge_vertices.shape[0]
+    out = np.empty((edge_offsets[n_edges], 2), dtype=np.int64)
+    for e in prange(n_edges):
+        start = edge_offsets[e]
+        stop = edge_offsets[e + 1]
+        if stop == start:
+            continue
+        a = edge_vertices[e, 0]
+        b = edge_vertices[e, 1]
+        if vertices[a, 2] > vertices[b, 2]:
+            a, b = b, a
+        xa = vertices[a, 0]
+        ya = vertices[a, 1]
+        za = vertices[a, 2]
+        dx = vertices[b, 0] - xa
+        dy = vertices[b, 1] - ya
+        dz = vertices[b, 2] - za
+        k0 = vert_layer[a]
+        for i in range(start, stop):
+            t = z[k0 + i - start] - za
+            out[i, 0] = xa + _round_div(dx * t, dz)
+            out[i, 1] = ya + _round_div(dy * t, dz)
+    return out
+
+
+@njit(
+    types.Tuple((I64_1D_OUT, I64_1D_OUT, I64_1D_OUT))(
+        I64_2D, I64_2D, I64_1D, I64_1D, I64_1D
+    ),
+    cache=True, nogil=True, parallel=True,
+)
+def face_segments(faces, face_edges, vert_layer, edge_base, face_offsets):
+    """One directed segment per (face, plane) pair, as crossing ids.
+
+    Face ``f`` meets the planes ``k`` with ``min(vert_layer) <= k < max(vert_layer)``
+    over its vertices; its segments are ``face_offsets[f]:face_offsets[f + 1]`` of the
+    results ``(seg_from, seg_to, seg_layer)``. The crossing of edge ``e`` with plane
+    ``k`` has id ``edge_base[e] + k``. A vertex is above plane ``k`` iff
+    ``k < vert_layer[v]`` (a vertex on the plane counts as below).
+
+    Preconditions: as :func:`crossing_points`; ``face_edges`` from
+    ``edge_topology``; ``face_offsets`` the cumulative sum of the per-face counts.
+    """
+    n_faces = faces.shape[0]
+    n_seg = face_offsets[n_faces]
+    seg_from = np.empty(n_seg, dtype=np.int64)
+    seg_to = np.empty(n_seg, dtype=np.int64)
+    seg_layer = np.empty(n_seg, dtype=np.int64)
+    down_of = np.array(_DOWN, dtype=np.int64)
+    up_of = np.array(_UP, dtype=np.int64)
+    for f in prange(n_faces):
+        start = face_offsets[f]
+        stop = face_offsets[f + 1]
+        if stop == start:
+            continue
+        l0 = vert_layer[faces[f, 0]]
+        l1 = vert_layer[faces[f, 1]]
+        l2 = vert_layer[faces[f, 2]]
+        k = min(l0, min(l1, l2))
+        for i in range(start, stop):
+            code = (1 if k < l0 else 0) + (2 if k < l1 else 0) + (4 if k < l2 else 0)
+            seg_from[i] = edge_base[face_edges[f, down_of[code]]] + k
+            seg_to[i] = edge_base[face_edges[f, up_of[code]]] + k
+            seg_layer[i] = k
+            k += 1
+    return seg_from, seg_to, seg_layer

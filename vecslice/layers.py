@@ -1,0 +1,133 @@
+"""CuraEngine's layer schedules: slice heights, print heights and thicknesses."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vecslice._validate import check_int
+from vecslice.errors import InputTypeError
+from vecslice.settings import SliceSettings
+
+__all__ = ["layer_count", "layer_heights", "layer_schedule"]
+
+
+def _tdiv(a: int, b: int) -> int:
+    """C-style integer division, truncating toward zero."""
+    q = abs(a) // abs(b)
+    return q if (a >= 0) == (b >= 0) else -q
+
+
+def _round_divide(a: int, b: int) -> int:
+    if (a >= 0) == (b >= 0):
+        return _tdiv(a + _tdiv(b, 2), b)
+    return _tdiv(a - _tdiv(b, 2), b)
+
+
+def layer_count(height: int, settings: SliceSettings) -> int:
+    """Number of layers CuraEngine slices for an object ``height`` µm tall.
+
+    Examples
+    --------
+    >>> layer_count(10000, SliceSettings(initial_layer_height=200))
+    99
+    """
+    h = check_int(height, "height", minimum=0)
+    init, th = settings.initial_layer_height, settings.layer_height
+    mode = settings.slicing_tolerance
+    if mode == "middle":
+        if h < init:
+            return 1 if h > _tdiv(init, 2) else 0
+        return _round_divide(h - init, th) + 1
+    if mode == "exclusive":
+        if h < init:
+            return 0
+        n = (h - 1 - init) // th + 1  # floor division, as Cura's floor_divide
+        return n + 1 if n > 0 else n
+    if h < init:  # inclusive
+        return 1 if h > 0 else 0
+    return -((init - h) // th) + 1  # ceil division
+
+
+def layer_schedule(
+    height: int, settings: SliceSettings
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """CuraEngine's schedule for an object resting on z = 0 and ``height`` µm tall.
+
+    Returns ``(slice_z, print_z, thickness)``, int64 arrays of shape (L,) in µm,
+    measured from the bed.
+
+    Examples
+    --------
+    >>> s = SliceSettings(initial_layer_height=200, layer_height=100)
+    >>> z, p, t = layer_schedule(10000, s)
+    >>> z[:3].tolist(), z[-1].item(), p[:2].tolist(), t[:2].tolist()
+    ([100, 250, 350], 9950, [200, 300], [200, 100])
+    """
+    n = layer_count(height, settings)
+    init, th = settings.initial_layer_height, settings.layer_height
+    idx = np.arange(n, dtype=np.int64)
+    mode = settings.slicing_tolerance
+    if mode == "middle":
+        z = init + _tdiv(th, 2) + (idx - 1) * th
+        first = _tdiv(init, 2)
+    else:
+        z = init + (idx - 1) * th
+        first = max(0, init - th) if mode == "exclusive" else 0
+    if n:
+        z[0] = first
+    print_z = init + idx * th
+    thickness = np.full(n, th, dtype=np.int64)
+    if n:
+        thickness[0] = init
+    return z, print_z, thickness
+
+
+def layer_heights(
+    mesh: Any, settings: SliceSettings | None = None
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """Slice heights for ``mesh`` following CuraEngine's schedule.
+
+    The schedule is measured from the mesh's lowest point, as if it rested on the
+    bed (``h = max z - min z``).
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The mesh to slice (int64 µm vertices).
+    settings : SliceSettings, optional
+        Layer heights and slicing tolerance; defaults to ``SliceSettings()``.
+
+    Returns
+    -------
+    slice_z : ndarray of shape (L,), int64
+        Absolute heights in the mesh's own frame (µm) at which to cut.
+    print_z : ndarray of shape (L,), int64
+        Top of each layer above the bed (µm).
+    thickness : ndarray of shape (L,), int64
+        Thickness of each layer (µm).
+
+    Notes
+    -----
+    For a mesh resting on z = 0 this is exactly CuraEngine's schedule. 'middle'
+    cuts each layer at its middle; 'inclusive' and 'exclusive' cut at its bottom and
+    are post-processed with the next layer when parts are made.
+    """
+    if settings is None:
+        settings = SliceSettings()
+    if not isinstance(settings, SliceSettings):
+        raise InputTypeError(
+            "`settings` must be a vecslice.SliceSettings; "
+            f"got {type(settings).__name__}"
+        )
+    verts = getattr(mesh, "vertices", None)
+    if not isinstance(verts, np.ndarray) or verts.ndim != 2 or verts.shape[1] != 3:
+        raise InputTypeError(
+            f"`mesh` must be a vecslice.Mesh; got {type(mesh).__name__}"
+        )
+    zmin = int(verts[:, 2].min())
+    zmax = int(verts[:, 2].max())
+    z, print_z, thickness = layer_schedule(zmax - zmin, settings)
+    return z + zmin, print_z, thickness
