@@ -137,5 +137,5 @@ def link_segments(seg_from, seg_to, seg_layer, n_crossings):
         c_rings[ncr] = ncv
     return (
         c_verts, c_rings[: ncr + 1].copy(), c_layer[:ncr].copy(),
-        o_verts, o_rings, o_layer,
+        o_verts[:nov].copy(), o_rings, o_layer,
     )

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from difflib import get_close_matches
 from typing import Literal
 
 from vecslice._validate import check_int, check_option
@@ -53,7 +54,33 @@ class SliceSettings:
     minimum_polygon_circumference: int = 1000
     union_overlapping_volumes: bool = True
 
-    def __post_init__(self) -> None:
+    def __init__(
+        self,
+        *,
+        layer_height: int = 100,
+        initial_layer_height: int = 300,
+        slicing_tolerance: Literal["middle", "inclusive", "exclusive"] = "middle",
+        max_resolution: int = 500,
+        max_deviation: int = 25,
+        max_area_deviation: int = 50000,
+        minimum_polygon_circumference: int = 1000,
+        union_overlapping_volumes: bool = True,
+        **unknown: object,
+    ) -> None:
+        if unknown:
+            name = sorted(unknown)[0]
+            close = get_close_matches(name, self.option_names(), n=1)
+            hint = f"; did you mean `{close[0]}`?" if close else ""
+            raise InputTypeError(
+                f"unknown setting `{name}` (got {unknown[name]!r}); settings are "
+                f"{', '.join(self.option_names())}{hint}"
+            )
+        values = dict(locals())
+        for name in self.option_names():
+            object.__setattr__(self, name, values[name])
+        self._check()
+
+    def _check(self) -> None:
         limit = 2**30
         for name, minimum in (("layer_height", 1), ("initial_layer_height", 1)):
             v = check_int(getattr(self, name), name, minimum=minimum, maximum=limit)
@@ -73,6 +100,12 @@ class SliceSettings:
                 f"{type(self.union_overlapping_volumes).__name__} "
                 f"{self.union_overlapping_volumes!r}"
             )
+
+    def replace(self, **changes: object) -> SliceSettings:
+        """A copy with some settings changed (validated like the constructor)."""
+        values: dict[str, object] = {n: getattr(self, n) for n in self.option_names()}
+        values.update(changes)
+        return SliceSettings(**values)  # type: ignore[arg-type]
 
     @classmethod
     def option_names(cls) -> tuple[str, ...]:

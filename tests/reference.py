@@ -1,0 +1,96 @@
+"""Slow, obviously-correct references for the slicing kernels (pure Python ints).
+
+Simplification has its own reference in ``reference_simplify.py``.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+
+
+def round_div(num: int, den: int) -> int:
+    """num / den rounded to nearest, ties away from zero (den > 0)."""
+    q, r = divmod(abs(num), den)
+    if 2 * r >= den:
+        q += 1
+    return q if num >= 0 else -q
+
+
+def ring_area2(coords, ring_offsets) -> list[int]:
+    out = []
+    for r in range(len(ring_offsets) - 1):
+        ring = [tuple(map(int, p)) for p in coords[ring_offsets[r] : ring_offsets[r + 1]]]
+        acc = 0
+        for i in range(len(ring)):
+            (x0, y0), (x1, y1) = ring[i], ring[(i + 1) % len(ring)]
+            acc += x0 * y1 - x1 * y0
+        out.append(acc)
+    return out
+
+
+def crossing(a, b, z: int) -> tuple[int, int]:
+    """Crossing of edge a-b (any order) with plane z, rounded once."""
+    if a[2] > b[2]:
+        a, b = b, a
+    t, den = z - a[2], b[2] - a[2]
+    return (a[0] + round_div((b[0] - a[0]) * t, den),
+            a[1] + round_div((b[1] - a[1]) * t, den))
+
+
+def slice_layer(vertices, faces, z: int):
+    """Closed loops and open chains of one plane, by dict linking on edges.
+
+    Returns ``(loops, chains)``, lists of lists of (x, y). Only for meshes where
+    every crossing has at most one segment in and one out (edge-manifold).
+    """
+    v = [tuple(map(int, p)) for p in vertices]
+    seg = {}
+    for f in faces:
+        f = [int(i) for i in f]
+        above = [v[i][2] > z for i in f]
+        if all(above) or not any(above):
+            continue
+        down = up = None
+        for j in range(3):
+            a, b = f[j], f[(j + 1) % 3]
+            if above[j] and not above[(j + 1) % 3]:
+                down = frozenset((a, b))
+            if not above[j] and above[(j + 1) % 3]:
+                up = frozenset((a, b))
+        seg[down] = up  # keyed by the edge the segment starts at
+    point = {}
+    for e in set(seg) | set(seg.values()):
+        a, b = tuple(e)
+        point[e] = crossing(v[a], v[b], z)
+    starts = set(seg) - set(seg.values())
+    chains, seen = [], set()
+    for s in sorted(starts, key=lambda e: sorted(e)):
+        chain, e = [], s
+        while e in seg:
+            seen.add(e)
+            chain.append(point[e])
+            e = seg[e]
+        chain.append(point[e])
+        chains.append(chain)
+    loops = []
+    for s in sorted(seg, key=lambda e: sorted(e)):
+        if s in seen:
+            continue
+        loop, e = [], s
+        while e not in seen:
+            seen.add(e)
+            loop.append(point[e])
+            e = seg[e]
+        loops.append(loop)
+    return loops, chains
+
+
+def canonical_loop(loop) -> tuple:
+    """Lexicographically smallest rotation of a closed loop."""
+    pts = [tuple(map(int, p)) for p in loop]
+    return min(tuple(pts[i:] + pts[:i]) for i in range(len(pts)))
+
+
+def canonical_layer(loops) -> list:
+    """A layer's loops as a sorted list of canonical rotations."""
+    return sorted(canonical_loop(lp) for lp in loops)

@@ -1,0 +1,88 @@
+import numpy as np
+import pytest
+
+import vecslice as vs
+from conftest import load_testdata
+from vecslice.layers import layer_count, layer_schedule
+
+
+def _cases():
+    data = load_testdata("cura_slice_vectors.json")
+    return data["layer_schedules"]["cases"]
+
+
+def test_every_cura_schedule_matches_exactly():
+    cases = _cases()
+    assert len(cases) >= 27
+    for c in cases:
+        s = vs.SliceSettings(layer_height=c["layer_height"],
+                             initial_layer_height=c["layer_height_0"],
+                             slicing_tolerance=c["mode"])
+        z, p, t = layer_schedule(c["mesh_max_z"], s)
+        assert layer_count(c["mesh_max_z"], s) == c["slice_layer_count"], c
+        assert z.tolist() == c["layer_z"], c
+        assert p.tolist() == c["printZ"], c
+        assert t.tolist() == c["thickness"], c
+        assert z.dtype == p.dtype == t.dtype == np.int64
+
+
+def test_layer_heights_are_measured_from_the_lowest_point():
+    base = vs.Mesh.from_arrays(
+        np.array([[0, 0, 0], [1000, 0, 0], [0, 1000, 0], [0, 0, 10000]]),
+        np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]),
+    )
+    shifted = vs.Mesh.from_arrays(base.vertices + [5, -7, -12345], base.faces)
+    s = vs.SliceSettings(initial_layer_height=200)
+    z0, p0, t0 = vs.layer_heights(base, s)
+    z1, p1, t1 = vs.layer_heights(shifted, s)
+    assert len(z0) == 99
+    assert (z1 == z0 - 12345).all()
+    assert (p0 == p1).all() and (t0 == t1).all()
+
+
+def test_default_settings():
+    mesh = vs.Mesh.from_arrays(
+        np.array([[0, 0, 0], [1000, 0, 0], [0, 1000, 0], [0, 0, 1000]]),
+        np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]),
+    )
+    z, p, t = vs.layer_heights(mesh)
+    assert z.tolist() == [150, 350, 450, 550, 650, 750, 850, 950]
+    assert t[0] == 300 and (t[1:] == 100).all()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "fragment"),
+    [
+        ({"layer_height": 0}, vs.SettingsError, "`layer_height` must be >= 1; got 0"),
+        ({"layer_height": -100}, ValueError, "`layer_height` must be >= 1"),
+        ({"initial_layer_height": 0}, ValueError, "`initial_layer_height`"),
+        ({"layer_height": 0.5}, TypeError, "`layer_height` must be an integer"),
+        ({"layer_height": "100"}, TypeError, "got str '100'"),
+        ({"layer_height": True}, TypeError, "`layer_height`"),
+        ({"slicing_tolerance": "mid"}, vs.SettingsError, "got 'mid'"),
+        ({"slicing_tolerance": None}, ValueError, "`slicing_tolerance` must be one"),
+        ({"max_deviation": -1}, ValueError, "`max_deviation` must be >= 0"),
+        ({"union_overlapping_volumes": 1}, TypeError, "`union_overlapping_volumes`"),
+        ({"layer_height": 2**31}, ValueError, "`layer_height` must be <="),
+    ],
+)
+def test_bad_settings(kwargs, error, fragment):
+    with pytest.raises(error, match=fragment.replace("(", r"\(")) as info:
+        vs.SliceSettings(**kwargs)
+    assert isinstance(info.value, vs.VecsliceError)
+
+
+def test_unknown_setting_is_rejected():
+    with pytest.raises(TypeError, match="layer_hieght"):
+        vs.SliceSettings(layer_hieght=100)
+
+
+def test_layer_heights_rejects_non_settings():
+    mesh = vs.Mesh.from_arrays(
+        np.array([[0, 0, 0], [1000, 0, 0], [0, 1000, 0], [0, 0, 1000]]),
+        np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]),
+    )
+    with pytest.raises(vs.InputTypeError, match="`settings` must be"):
+        vs.layer_heights(mesh, {"layer_height": 100})
+    with pytest.raises(vs.InputTypeError, match="`mesh` must be"):
+        vs.layer_heights("cube.stl", vs.SliceSettings())
