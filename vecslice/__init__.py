@@ -14,8 +14,10 @@ from vecslice.errors import (
     VecsliceError,
     VecsliceWarning,
 )
+from vecslice.layers import layer_heights
 from vecslice.paths import LayerPaths, Paths
 from vecslice.settings import SliceSettings
+from vecslice.slicing import slice_contours
 from vecslice.units import COORD_LIMIT, to_microns
 
 __version__ = "0.1.0"
@@ -34,5 +36,7 @@ __all__ = [
     "VecsliceError",
     "VecsliceWarning",
     "__version__",
+    "layer_heights",
+    "slice_contours",
     "to_microns",
 ]

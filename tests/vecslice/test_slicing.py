@@ -1,0 +1,201 @@
+import numpy as np
+import pytest
+from hypothesis import assume, given
+
+import reference
+import vecslice as vs
+from conftest import MESHES, load_testdata
+from strategies import closed_meshes
+
+# (file, scale to mm) of every mesh in ../shared/meshes
+ALL_MESHES = [
+    ("3DBenchy.3mf", 1.0), ("Voron_Design_Cube_v7.stl", 1.0),
+    ("bun_zipper_res2.ply", 1000.0), ("featuretype.STL", 25.4),
+    ("hourglass.stl", 1000.0), ("openscad-nonmanifold-crash.obj", 1.0),
+    ("plate_holes.STL", 1.0), ("pyramids.3mf", 1.0),
+    ("stanford-bunny.obj", 1000.0), ("teapot.stl", 1.0),
+    ("cura/cube.stl", 1.0), ("cura/cylinder1000.stl", 1.0),
+]
+WATERTIGHT = [
+    "Voron_Design_Cube_v7.stl", "featuretype.STL", "plate_holes.STL",
+    "pyramids.3mf", "hourglass.stl", "cura/cube.stl", "cura/cylinder1000.stl",
+]
+_cache: dict[str, vs.Mesh] = {}
+
+
+def mesh_of(name: str) -> vs.Mesh:
+    if name not in _cache:
+        path = MESHES / name
+        if not path.exists():
+            pytest.skip(f"{path} not found (../shared beside the project)")
+        _cache[name] = vs.load_mesh(path, scale=dict(ALL_MESHES)[name])
+    return _cache[name]
+
+
+def simplify_collinear(ring: np.ndarray) -> list[tuple[int, int]]:
+    """Drop repeated and exactly collinear vertices of a closed ring."""
+    pts = [tuple(map(int, p)) for p in ring]
+    changed = True
+    while changed and len(pts) > 2:
+        changed = False
+        for i in range(len(pts)):
+            a, b, c = pts[i - 1], pts[i], pts[(i + 1) % len(pts)]
+            cross = (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0])
+            if b == a or cross == 0:
+                del pts[i]
+                changed = True
+                break
+    return pts
+
+
+def test_cura_cube_gives_the_exact_square_on_every_layer():
+    case = load_testdata("cura_slice_vectors.json")["Cube"]
+    cfg = case["settings_microns"]
+    mesh = mesh_of("cura/cube.stl")
+    s = vs.SliceSettings(initial_layer_height=cfg["initial_layer_thickness"],
+                         layer_height=cfg["layer_thickness"])
+    z, _, _ = vs.layer_heights(mesh, s)
+    assert z.tolist() == case["layer_z"]
+    loops = vs.slice_contours(mesh, z)
+    assert loops.n_layers == case["num_layers"] == 99
+    square = [tuple(p) for p in case["expectation"]["square"]]
+    for k in range(loops.n_layers):
+        (ring,) = loops.layer(k)
+        pts = simplify_collinear(ring)
+        assert len(pts) == 4
+        start = square.index(pts[0])
+        assert pts == square[start:] + square[:start]  # same corners, CCW
+    assert loops.open.n_rings == 0
+
+
+def test_cura_cylinder_gives_one_loop_per_layer_close_to_the_circle():
+    case = load_testdata("cura_slice_vectors.json")["Cylinder1000"]
+    mesh = mesh_of("cura/cylinder1000.stl")
+    loops = vs.slice_contours(mesh, case["layer_z"])
+    assert loops.rings_per_layer().tolist() == [1] * 99
+    ref = np.array(case["expectation"]["reference_circle"], dtype=np.int64)
+    ref_area2 = reference.ring_area2(ref, [0, len(ref)])[0]
+    for a2 in loops.area2():
+        # relative difference of areas bounds the relative Hamming distance
+        assert abs(a2 - ref_area2) / (abs(a2) + abs(ref_area2)) <= 0.002
+
+
+@pytest.mark.parametrize("name", [n for n, _ in ALL_MESHES])
+def test_every_mesh_slices(name):
+    mesh = mesh_of(name)
+    z, _, _ = vs.layer_heights(mesh, vs.SliceSettings(layer_height=200))
+    loops = vs.slice_contours(mesh, z)
+    assert loops.n_layers == len(z) > 0
+    lo, hi = mesh.vertices[:, :2].min(axis=0), mesh.vertices[:, :2].max(axis=0)
+    for part in (loops, loops.open):
+        assert part.n_layers == len(z)
+        if part.coords.size:
+            assert (part.coords >= lo).all() and (part.coords <= hi).all()
+
+
+def _manifold_area(mesh: vs.Mesh, z: int) -> float:
+    import manifold3d as m3
+
+    m = m3.Manifold(m3.Mesh(vert_properties=mesh.vertices.astype(np.float32),
+                            tri_verts=mesh.faces.astype(np.uint32)))
+    assert m.status() == m3.Error.NoError
+    return m.slice(float(z)).area()
+
+
+@pytest.mark.parametrize("name", WATERTIGHT)
+def test_watertight_layers_close_and_match_manifold3d(name):
+    mesh = mesh_of(name)
+    z, _, t = vs.layer_heights(mesh, vs.SliceSettings())
+    loops = vs.slice_contours(mesh, z)
+    assert loops.open.n_rings == 0  # every loop closes
+    area = loops.layer_area2() / 2
+    # the crossings are rounded to 1 µm: the area moves by at most 1 µm per µm of
+    # perimeter
+    perim = np.zeros(loops.n_layers)
+    for k in range(loops.n_layers):
+        for ring in loops.layer(k):
+            perim[k] += np.hypot(*(np.roll(ring, -1, 0) - ring).T).sum()
+    for k in np.linspace(0, loops.n_layers - 1, 7).astype(int):
+        assert abs(area[k] - _manifold_area(mesh, z[k])) <= perim[k] + 1, k
+    vol = abs(float((area * t).sum()))
+    assert abs(vol - abs(mesh.volume)) / abs(mesh.volume) < 0.01
+
+
+@pytest.mark.parametrize("name", ["Voron_Design_Cube_v7.stl", "pyramids.3mf"])
+def test_translation_in_xy_is_exact(name):
+    mesh = mesh_of(name)
+    z, _, _ = vs.layer_heights(mesh, vs.SliceSettings(layer_height=300))
+    a = vs.slice_contours(mesh, z)
+    shift = np.array([123_457, -98_761, 0])
+    moved = vs.Mesh.from_arrays(mesh.vertices + shift, mesh.faces)
+    b = vs.slice_contours(moved, z)
+    assert (b.coords == a.coords + shift[:2]).all()
+    assert (b.ring_offsets == a.ring_offsets).all()
+    assert (b.layer_offsets == a.layer_offsets).all()
+
+
+def test_uneven_and_unsorted_heights():
+    mesh = mesh_of("Voron_Design_Cube_v7.stl")
+    zmin = int(mesh.vertices[:, 2].min())
+    z = zmin + np.array([29000, 50, 51, 7000, 12345, 50, 29999], dtype=np.int64)
+    loops = vs.slice_contours(mesh, z)
+    for k, zk in enumerate(z):
+        single = vs.slice_contours(mesh, [zk])
+        got = [r.tolist() for r in loops.layer(k)]
+        assert got == [r.tolist() for r in single.layer(0)]
+    assert [r.tolist() for r in loops.layer(1)] == [r.tolist() for r in loops.layer(5)]
+
+
+def test_on_plane_rule_bottom_yes_top_no():
+    mesh = mesh_of("cura/cube.stl")
+    zmin, zmax = int(mesh.vertices[:, 2].min()), int(mesh.vertices[:, 2].max())
+    loops = vs.slice_contours(mesh, [zmin, zmax, zmin - 1, zmax + 1])
+    assert loops.rings_per_layer().tolist() == [1, 0, 0, 0]
+    assert loops.layer_area2()[0] == 2 * 10000 * 10000
+
+
+def test_holes_are_clockwise():
+    mesh = mesh_of("plate_holes.STL")
+    z, _, _ = vs.layer_heights(mesh, vs.SliceSettings(layer_height=1000))
+    loops = vs.slice_contours(mesh, z)
+    assert (loops.rings_per_layer() == 6).all()
+    a2 = loops.area2().reshape(-1, 6)
+    assert ((a2 > 0).sum(axis=1) == 1).all() and ((a2 < 0).sum(axis=1) == 5).all()
+
+
+@given(closed_meshes())
+def test_matches_slow_reference(case):
+    v, f, planes = case
+    mesh = vs.Mesh.from_arrays(v, f)
+    assume(mesh.n_faces == len(f))  # rounding merged nothing: topology as built
+    loops = vs.slice_contours(mesh, planes)
+    assert loops.open.n_rings == 0
+    for k, zk in enumerate(planes):
+        ref_loops, ref_chains = reference.slice_layer(mesh.vertices, mesh.faces, int(zk))
+        assert ref_chains == []
+        assert reference.canonical_layer(loops.layer(k)) == \
+            reference.canonical_layer(ref_loops)
+
+
+def test_empty_schedule_gives_no_layers():
+    mesh = mesh_of("cura/cube.stl")
+    loops = vs.slice_contours(mesh, np.empty(0, dtype=np.int64))
+    assert loops.n_layers == 0 and loops.open.n_layers == 0
+
+
+@pytest.mark.parametrize(
+    ("mesh_arg", "z", "error", "fragment"),
+    [
+        ("cube.stl", [0], vs.InputTypeError, "`mesh` must be a vecslice.Mesh"),
+        (None, [0.5], vs.InputTypeError, "`slice_z` must be integer microns"),
+        (None, [[0, 1]], vs.InputValueError, r"`slice_z` must have shape \(N\)"),
+        (None, [2**30], vs.InputValueError, "`slice_z` must satisfy"),
+        (None, "10", vs.InputTypeError, "`slice_z` must be an integer array"),
+        (None, None, vs.InputTypeError, "`slice_z`"),
+    ],
+)
+def test_bad_input(mesh_arg, z, error, fragment):
+    mesh = mesh_arg if mesh_arg is not None else mesh_of("cura/cube.stl")
+    with pytest.raises(error, match=fragment) as info:
+        vs.slice_contours(mesh, z)
+    assert isinstance(info.value, (ValueError, TypeError))
