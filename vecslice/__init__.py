@@ -15,8 +15,10 @@ from vecslice.errors import (
     VecsliceWarning,
 )
 from vecslice.layers import layer_heights
+from vecslice.mesh import Mesh, MeshReport, check_mesh, load_mesh
 from vecslice.paths import LayerPaths, Paths
 from vecslice.settings import SliceSettings
+from vecslice.simplify import simplify
 from vecslice.slicing import slice_contours
 from vecslice.units import COORD_LIMIT, to_microns
 
@@ -28,7 +30,9 @@ __all__ = [
     "InputValueError",
     "LayerPaths",
     "LayoutError",
+    "Mesh",
     "MeshFileError",
+    "MeshReport",
     "Paths",
     "SettingsError",
     "SliceSettings",
@@ -36,7 +40,10 @@ __all__ = [
     "VecsliceError",
     "VecsliceWarning",
     "__version__",
+    "check_mesh",
     "layer_heights",
+    "load_mesh",
+    "simplify",
     "slice_contours",
     "to_microns",
 ]
