@@ -14,8 +14,8 @@ from ._types import I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 # The down edge j runs from an above vertex j to a below vertex j + 1, the up edge the
 # other way round; a segment runs from the down crossing to the up crossing, which
 # makes outer loops counter-clockwise seen from +z for outward-wound faces.
-_DOWN = (0, 0, 1, 1, 2, 0, 2, 0)
-_UP = (0, 2, 0, 2, 1, 1, 0, 0)
+DOWN_EDGE = (0, 0, 1, 1, 2, 0, 2, 0)
+UP_EDGE = (0, 2, 0, 2, 1, 1, 0, 0)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -93,8 +93,8 @@ def face_segments(faces, face_edges, vert_layer, edge_base, face_offsets):
     seg_from = np.empty(n_seg, dtype=np.int64)
     seg_to = np.empty(n_seg, dtype=np.int64)
     seg_layer = np.empty(n_seg, dtype=np.int64)
-    down_of = np.array(_DOWN, dtype=np.int64)
-    up_of = np.array(_UP, dtype=np.int64)
+    down_of = np.array(DOWN_EDGE, dtype=np.int64)
+    up_of = np.array(UP_EDGE, dtype=np.int64)
     for f in prange(n_faces):
         start = face_offsets[f]
         stop = face_offsets[f + 1]

@@ -1,94 +1,114 @@
 """Kernels linking (face, layer) segments into loops and open chains."""
 
 import numpy as np
-from numba import njit, types
+from numba import njit, prange, types
 
-from ._types import B1_1D_OUT, I64, I64_1D, I64_1D_OUT
+from ._types import B1_1D, B1_1D_OUT, I64_1D, I64_1D_OUT, I64_2D
+from .crossings import DOWN_EDGE, UP_EDGE
 
 _LINK_OUT = types.Tuple(
     (I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT)
 )
 
 
-@njit(types.Tuple((I64_1D_OUT, B1_1D_OUT))(I64_1D, I64_1D, I64), cache=True, nogil=True)
-def successors(seg_from, seg_to, n_crossings):
-    """Successor of each segment through the crossing it ends at.
+@njit(
+    types.Tuple((I64_1D_OUT, B1_1D_OUT))(
+        I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, I64_1D
+    ),
+    cache=True, nogil=True, parallel=True,
+)
+def face_successors(faces, vert_layer, face_offsets, twin, seg_from, seg_to):
+    """Successor of each (face, layer) segment of :func:`face_segments`.
 
-    At a crossing where exactly one segment ends and one starts (every crossing of a
-    closed edge-manifold mesh) they are joined. Where several end or start (a
-    non-manifold edge, duplicate faces) the ``k``-th segment ending there, by
-    segment index, is joined to the ``k``-th starting there; surplus ends stay
-    unjoined. Returns ``next`` (-1 where a chain ends) and ``has_prev``. ``next`` is
-    injective: every segment has at most one predecessor.
+    Where the edge a segment ends on has a twin half-edge (a closed, consistently
+    wound edge), the successor is the twin face's segment on the same layer: no
+    search. At the remaining crossings (open, non-manifold or inconsistently wound
+    edges) the ``k``-th segment ending there, by segment index, is joined to the
+    ``k``-th segment starting there; surplus ends stay unjoined. Returns ``next``
+    (-1 where a chain ends) and ``has_prev``; ``next`` is injective.
 
-    Preconditions: 0 <= seg_from, seg_to < n_crossings.
+    Preconditions: the arguments of :func:`face_segments` and its results
+    ``seg_from``, ``seg_to``; ``twin`` from ``edge_topology``.
     """
+    n_faces = faces.shape[0]
     n_seg = seg_from.shape[0]
-    n_out = np.zeros(n_crossings, dtype=np.int64)
-    n_in = np.zeros(n_crossings, dtype=np.int64)
-    first_out = np.full(n_crossings, -1, dtype=np.int64)
-    for s in range(n_seg):
-        c = seg_from[s]
-        if n_out[c] == 0:
-            first_out[c] = s
-        n_out[c] += 1
-        n_in[seg_to[s]] += 1
     nxt = np.full(n_seg, -1, dtype=np.int64)
     has_prev = np.zeros(n_seg, dtype=np.bool_)
-    n_special = 0
-    for s in range(n_seg):
-        c = seg_to[s]
-        if n_in[c] == 1 and n_out[c] == 1:
-            t = first_out[c]
-            nxt[s] = t
-            has_prev[t] = True
-        elif n_out[c] > 0:
-            n_special += 1
-    if n_special == 0:
-        return nxt, has_prev
-    # crossings shared by several segments: pair the k-th in with the k-th out
-    out_off = np.zeros(n_crossings + 1, dtype=np.int64)
-    for c in range(n_crossings):
-        k = n_out[c] if not (n_in[c] == 1 and n_out[c] == 1) else 0
-        out_off[c + 1] = out_off[c] + k
-    out_items = np.empty(out_off[n_crossings], dtype=np.int64)
-    fill = out_off[:-1].copy()
-    for s in range(n_seg):
-        c = seg_from[s]
-        if fill[c] < out_off[c + 1]:
-            out_items[fill[c]] = s
-            fill[c] += 1
-    used_in = np.zeros(n_crossings, dtype=np.int64)
-    for s in range(n_seg):
-        c = seg_to[s]
-        if n_in[c] == 1 and n_out[c] == 1:
+    open_in = np.zeros(n_seg, dtype=np.bool_)
+    open_out = np.zeros(n_seg, dtype=np.bool_)
+    down_of = np.array(DOWN_EDGE, dtype=np.int64)
+    up_of = np.array(UP_EDGE, dtype=np.int64)
+    for f in prange(n_faces):
+        start = face_offsets[f]
+        stop = face_offsets[f + 1]
+        if stop == start:
             continue
-        k = used_in[c]
-        used_in[c] += 1
-        if k < out_off[c + 1] - out_off[c]:
-            t = out_items[out_off[c] + k]
+        l0 = vert_layer[faces[f, 0]]
+        l1 = vert_layer[faces[f, 1]]
+        l2 = vert_layer[faces[f, 2]]
+        k = min(l0, min(l1, l2))
+        for s in range(start, stop):
+            code = (1 if k < l0 else 0) + (2 if k < l1 else 0) + (4 if k < l2 else 0)
+            tw = twin[3 * f + up_of[code]]
+            if tw >= 0:
+                g = tw // 3
+                lo_g = min(vert_layer[faces[g, 0]],
+                           min(vert_layer[faces[g, 1]], vert_layer[faces[g, 2]]))
+                t = face_offsets[g] + k - lo_g
+                nxt[s] = t
+                has_prev[t] = True
+            else:
+                open_in[s] = True
+            if twin[3 * f + down_of[code]] < 0:
+                open_out[s] = True
+            k += 1
+    ins = np.flatnonzero(open_in)
+    outs = np.flatnonzero(open_out)
+    if ins.shape[0] == 0 or outs.shape[0] == 0:
+        return nxt, has_prev
+    key_in = seg_to[ins]
+    key_out = seg_from[outs]
+    order_in = np.argsort(key_in, kind="mergesort")
+    order_out = np.argsort(key_out, kind="mergesort")
+    i = 0
+    o = 0
+    while i < ins.shape[0] and o < outs.shape[0]:
+        ci = key_in[order_in[i]]
+        co = key_out[order_out[o]]
+        if ci < co:
+            i += 1
+        elif co < ci:
+            o += 1
+        else:
+            s = ins[order_in[i]]
+            t = outs[order_out[o]]
             nxt[s] = t
             has_prev[t] = True
+            i += 1
+            o += 1
     return nxt, has_prev
 
 
-@njit(_LINK_OUT(I64_1D, I64_1D, I64_1D, I64), cache=True, nogil=True)
-def link_segments(seg_from, seg_to, seg_layer, n_crossings):
+@njit(_LINK_OUT(I64_1D, B1_1D, I64_1D, I64_1D, I64_1D), cache=True, nogil=True)
+def link_segments(nxt, has_prev, seg_from, seg_to, seg_layer):
     """Link directed segments into closed loops and open chains.
 
     A segment runs from crossing ``seg_from[s]`` to crossing ``seg_to[s]`` on layer
-    ``seg_layer[s]``. Returns, with vertices as crossing ids, ``(closed_vertices,
-    closed_ring_offsets, closed_ring_layer, open_vertices, open_ring_offsets,
+    ``seg_layer[s]``; ``nxt[s]`` is its successor. Returns, with vertices as
+    crossing ids, ``(closed_vertices, closed_ring_offsets, closed_ring_layer,
+    open_vertices, open_ring_offsets,
     open_ring_layer)``. A closed loop of n segments has n vertices (its first is not
     repeated); an open chain of n segments has n + 1. Rings come in the order of
     their first segment; open chains start where no segment ends. Rings are not
     grouped by layer (the caller sorts them).
 
-    Preconditions: 0 <= seg_from, seg_to < n_crossings; both crossings of a segment
-    belong to its layer.
+    ``nxt`` is the successor of each segment (-1 where a chain ends) and
+    ``has_prev`` whether some segment has it as successor.
+
+    Preconditions: ``nxt`` injective and consistent with ``has_prev`` (as
+    :func:`face_successors` makes it); a segment and its successor share a layer.
     """
     n_seg = seg_from.shape[0]
-    nxt, has_prev = successors(seg_from, seg_to, n_crossings)
     visited = np.zeros(n_seg, dtype=np.bool_)
     n_open = 0
     for s in range(n_seg):

@@ -19,7 +19,8 @@ def round_div(num: int, den: int) -> int:
 def ring_area2(coords, ring_offsets) -> list[int]:
     out = []
     for r in range(len(ring_offsets) - 1):
-        ring = [tuple(map(int, p)) for p in coords[ring_offsets[r] : ring_offsets[r + 1]]]
+        ring = coords[ring_offsets[r] : ring_offsets[r + 1]]
+        ring = [tuple(map(int, p)) for p in ring]
         acc = 0
         for i in range(len(ring)):
             (x0, y0), (x1, y1) = ring[i], ring[(i + 1) % len(ring)]
@@ -94,3 +95,23 @@ def canonical_loop(loop) -> tuple:
 def canonical_layer(loops) -> list:
     """A layer's loops as a sorted list of canonical rotations."""
     return sorted(canonical_loop(lp) for lp in loops)
+
+
+def successors(seg_from, seg_to, n_crossings):
+    """Successor of each segment by crossing ids alone (no topology).
+
+    At each crossing the k-th segment ending there (by segment index) is joined to
+    the k-th segment starting there. Returns (next, has_prev) as lists.
+    """
+    starts = defaultdict(list)
+    ends = defaultdict(list)
+    for s, (a, b) in enumerate(zip(seg_from.tolist(), seg_to.tolist())):
+        starts[a].append(s)
+        ends[b].append(s)
+    nxt = [-1] * len(seg_from)
+    has_prev = [False] * len(seg_from)
+    for c in range(n_crossings):
+        for s_in, s_out in zip(ends.get(c, []), starts.get(c, [])):
+            nxt[s_in] = s_out
+            has_prev[s_out] = True
+    return nxt, has_prev

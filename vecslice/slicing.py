@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from kernels.crossings import crossing_points, face_segments
-from kernels.loops import link_segments
+from kernels.loops import face_successors, link_segments
 from kernels.rings import group_rings
 from kernels.topology import edge_topology
 from vecslice._validate import as_int_array, check_coord_range
@@ -103,7 +103,7 @@ def slice_contours(mesh: Any, slice_z: ArrayLike) -> LayerPaths:
         return LayerPaths(empty.coords, empty.ring_offsets, empty.layer_offsets,
                           open=LayerPaths.empty(n_layers))
 
-    face_edges, edge_vertices = edge_topology(faces, vertices.shape[0])
+    face_edges, edge_vertices, twin = edge_topology(faces, vertices.shape[0])
     vert_layer = _layer_of_vertices(vertices, zs)
     edge_layers = vert_layer[edge_vertices]
     edge_offsets = _range_offsets(edge_layers)
@@ -113,9 +113,10 @@ def slice_contours(mesh: Any, slice_z: ArrayLike) -> LayerPaths:
     seg_from, seg_to, seg_layer = face_segments(
         faces, face_edges, vert_layer, edge_base, face_offsets
     )
-    cv, cr, cl, ov, orr, ol = link_segments(
-        seg_from, seg_to, seg_layer, points.shape[0]
+    nxt, has_prev = face_successors(
+        faces, vert_layer, face_offsets, twin, seg_from, seg_to
     )
+    cv, cr, cl, ov, orr, ol = link_segments(nxt, has_prev, seg_from, seg_to, seg_layer)
     if is_sorted:
         rank = np.arange(n_layers, dtype=np.int64)
     else:

@@ -27,17 +27,29 @@ def _reference(faces):
 @given(st.lists(st.tuples(*[st.integers(0, 40)] * 3), min_size=1, max_size=80))
 def test_edge_topology_matches_reference(tris):
     faces = np.array([t for t in tris if len(set(t)) == 3] or [(0, 1, 2)], np.int64)
-    fe, ev = edge_topology(faces, 41)
+    fe, ev, twin = edge_topology(faces, 41)
     ref_fe, ref_ev = _reference(faces)
     assert fe.tolist() == ref_fe.tolist()
     assert ev.tolist() == ref_ev.tolist()
+    check_twins(faces, fe, twin)
+
+
+def check_twins(faces, fe, twin):
+    flat = fe.reshape(-1)
+    for h in range(len(flat)):
+        same = [g for g in range(len(flat)) if flat[g] == flat[h]]
+        start = lambda g: faces[g // 3, g % 3]  # noqa: E731
+        if len(same) == 2 and start(same[0]) != start(same[1]):
+            assert twin[h] == (same[1] if h == same[0] else same[0])
+        else:
+            assert twin[h] == -1
 
 
 def test_large_fan_uses_sorted_buckets():
     # a vertex shared by 2000 faces exercises the sorted-bucket path
     n = 2000
     faces = np.array([[0, i, i + 1] for i in range(1, n + 1)], dtype=np.int64)
-    fe, ev = edge_topology(faces, n + 2)
+    fe, ev, _ = edge_topology(faces, n + 2)
     ref_fe, ref_ev = _reference(faces)
     assert fe.tolist() == ref_fe.tolist() and ev.tolist() == ref_ev.tolist()
 
@@ -45,7 +57,8 @@ def test_large_fan_uses_sorted_buckets():
 @pytest.mark.parametrize("mesh", [trimesh.creation.box(), trimesh.creation.icosphere()])
 def test_closed_mesh_edges_have_two_faces(mesh):
     faces = np.asarray(mesh.faces, dtype=np.int64)
-    fe, ev = edge_topology(faces, len(mesh.vertices))
+    fe, ev, twin = edge_topology(faces, len(mesh.vertices))
     counts = edge_face_counts(fe, len(ev))
     assert (counts == 2).all()
+    assert (twin >= 0).all() and (twin[twin] == np.arange(len(twin))).all()
     assert len(ev) == len(mesh.edges_unique)  # Euler: E = 3F/2
