@@ -1,0 +1,203 @@
+"""``slice_mesh``: a mesh in, CuraEngine-style layer parts out.
+
+Stages: layer schedule -> raw loops (with stitching) -> perimeter filter ->
+simplification -> degenerate-vertex removal -> slicing tolerance -> layer parts.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, TypeVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from kernels.simplify import (
+    remove_degenerate_vertices,
+    ring_perimeters,
+    simplify_rings,
+)
+from vecslice.errors import InputTypeError
+from vecslice.layers import layer_heights
+from vecslice.parts import apply_slicing_tolerance, make_parts
+from vecslice.paths import LayerPaths
+from vecslice.ragged import ragged_take
+from vecslice.settings import SliceSettings
+from vecslice.slicing import slice_contours
+from vecslice.storage import SlicedModel
+
+__all__ = ["StageTimes", "clean_loops", "slice_mesh"]
+
+T = TypeVar("T")
+
+
+@dataclass
+class StageTimes:
+    """Wall-clock seconds spent in each stage of the last :func:`slice_mesh` call."""
+
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    def __str__(self) -> str:
+        total = sum(self.seconds.values())
+        parts = ", ".join(f"{k} {v:.3f} s" for k, v in self.seconds.items())
+        return f"{parts} (total {total:.3f} s)"
+
+
+def _keep_rings(paths: LayerPaths, keep: NDArray[np.bool_]) -> LayerPaths:
+    """The rings of ``paths`` where ``keep`` is true, layers preserved."""
+    idx = np.flatnonzero(keep).astype(np.int64)
+    ring_offsets, items = ragged_take(paths.ring_offsets, idx)
+    layer_offsets = np.zeros(paths.n_layers + 1, dtype=np.int64)
+    counts = np.bincount(paths.ring_layer()[idx], minlength=paths.n_layers)
+    np.cumsum(counts, out=layer_offsets[1:])
+    return LayerPaths._trusted(paths.coords[items], ring_offsets, layer_offsets)
+
+
+def _with_rings(
+    paths: LayerPaths, coords: NDArray[np.int64], ring_offsets: NDArray[np.int64]
+) -> LayerPaths:
+    """Same layers, one new ring per old ring; empty rings dropped."""
+    out = LayerPaths._trusted(coords, ring_offsets, paths.layer_offsets.copy())
+    return _keep_rings(out, np.diff(ring_offsets) > 0)
+
+
+def clean_loops(loops: LayerPaths, settings: SliceSettings) -> LayerPaths:
+    """CuraEngine's per-layer clean-up of raw loops, for all layers at once.
+
+    Closed loops with a perimeter below ``minimum_polygon_circumference`` are
+    dropped, the rest simplified as polygons (empty results dropped), then vertices
+    where a loop exactly reverses are removed (loops left with <= 2 vertices are
+    dropped). Open chains are simplified as polylines. See ``spec/SIMPLIFY.md``.
+
+    Parameters
+    ----------
+    loops : LayerPaths
+        Raw loops from :func:`vecslice.slice_contours`.
+    settings : SliceSettings
+        The thresholds (µm).
+
+    Returns
+    -------
+    LayerPaths
+        Cleaned closed loops, with cleaned open chains in ``.open``.
+    """
+    s = settings
+    keep = ring_perimeters(loops.coords, loops.ring_offsets)
+    closed = _keep_rings(loops, keep >= s.minimum_polygon_circumference)
+    coords, offsets = simplify_rings(
+        closed.coords, closed.ring_offsets, True, s.max_resolution,
+        s.max_deviation, s.max_area_deviation,
+    )
+    coords, offsets = remove_degenerate_vertices(coords, offsets)
+    closed = _with_rings(closed, coords, offsets)
+    chains = loops.open
+    if chains is not None:
+        coords, offsets = simplify_rings(
+            chains.coords, chains.ring_offsets, False, s.max_resolution,
+            s.max_deviation, s.max_area_deviation,
+        )
+        chains = _with_rings(chains, coords, offsets)
+    return LayerPaths._trusted(
+        closed.coords, closed.ring_offsets, closed.layer_offsets, chains
+    )
+
+
+class _Stages:
+    """Times the stages and drives an optional progress bar."""
+
+    def __init__(self, names: list[str], progress: bool) -> None:
+        self.times = StageTimes()
+        self.bar: Any = None
+        if progress:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=len(names), desc="slicing", unit="stage")
+
+    def run(self, name: str, fn: Callable[..., T], *args: Any, **kw: Any) -> T:
+        if self.bar is not None:
+            self.bar.set_description(name)
+        t = time.perf_counter()
+        out = fn(*args, **kw)
+        self.times.seconds[name] = time.perf_counter() - t
+        if self.bar is not None:
+            self.bar.update(1)
+        return out
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.set_description("done")
+            self.bar.close()
+
+
+_STAGES = ["layers", "contours", "simplify", "tolerance", "parts", "store"]
+
+
+def slice_mesh(
+    mesh: Any,
+    settings: SliceSettings | None = None,
+    *,
+    progress: bool = False,
+    times: StageTimes | None = None,
+) -> SlicedModel:
+    """Slice ``mesh`` into layers of parts (outline + holes), as CuraEngine does.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        Triangle mesh in µm (see :func:`vecslice.load_mesh`).
+    settings : SliceSettings, optional
+        Layer heights, slicing tolerance, simplification thresholds and the fill
+        rule; defaults to ``SliceSettings()`` (Cura's defaults).
+    progress : bool, default False
+        Show a progress bar (tqdm) over the stages on stderr.
+    times : StageTimes, optional
+        If given, filled with the seconds spent in each stage.
+
+    Returns
+    -------
+    SlicedModel
+        Layers -> parts -> rings -> coords, with ``slice_z``, ``print_z``,
+        ``thickness`` and the open polylines that could not be closed.
+
+    Notes
+    -----
+    Stages: :func:`vecslice.layer_heights`; :func:`vecslice.slice_contours`
+    (loops by mesh topology, open chains stitched); :func:`clean_loops`
+    (minimum circumference, CuraEngine simplification, degenerate vertices); the
+    slicing tolerance ('inclusive' unions each layer with the next, 'exclusive'
+    intersects them); :func:`vecslice.make_parts` (union with NonZero or EvenOdd,
+    split into parts).
+
+    Examples
+    --------
+    >>> import trimesh, vecslice as vs
+    >>> box = vs.load_mesh(trimesh.creation.box((10, 10, 2)))
+    >>> model = vs.slice_mesh(box)
+    >>> model.n_layers, len(model.layer(0)), model.layer_areas()[0]
+    (18, 1, 100000000.0)
+    """
+    if settings is None:
+        settings = SliceSettings()
+    if not isinstance(settings, SliceSettings):
+        raise InputTypeError(
+            "`settings` must be a vecslice.SliceSettings; "
+            f"got {type(settings).__name__}"
+        )
+    st = _Stages(_STAGES, progress)
+    try:
+        slice_z, print_z, thickness = st.run("layers", layer_heights, mesh, settings)
+        raw = st.run("contours", slice_contours, mesh, slice_z)
+        loops = st.run("simplify", clean_loops, raw, settings)
+        loops = st.run("tolerance", apply_slicing_tolerance, loops,
+                       settings.slicing_tolerance)
+        parts = st.run("parts", make_parts, loops,
+                       union_overlapping_volumes=settings.union_overlapping_volumes)
+        model = st.run("store", SlicedModel.from_parts, parts, slice_z=slice_z,
+                       print_z=print_z, thickness=thickness, open=loops.open)
+    finally:
+        st.close()
+    if times is not None:
+        times.seconds.update(st.times.seconds)
+    return model
