@@ -1,0 +1,399 @@
+"""Mesh topology in whole-array form: edges, shells, orientation, the mesh report.
+
+Everything here works on validated int64 arrays (``vertices`` (V, 3) µm, ``faces``
+(F, 3) indices into the vertices, no repeated index within a face) and is vectorised
+with numpy: edges are sorted vertex pairs grouped with ``np.unique``, connected
+components come from a pointer-jumping union–find over edge lists. There is no loop
+over faces or vertices in Python.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vecslice.errors import InputTypeError
+
+__all__ = ["LoadInfo", "MeshReport", "check_mesh"]
+
+
+@dataclass(frozen=True, slots=True)
+class LoadInfo:
+    """What loading (and repairing) did to a mesh; counts only.
+
+    Attributes
+    ----------
+    source : str
+        The file path, ``'trimesh.Trimesh'``, ``'trimesh.Scene'`` or ``'arrays'``.
+    faces_in, vertices_in : int
+        Face and vertex records as read (3MF: after applying build items).
+    vertices_merged : int
+        Vertex records removed because an earlier vertex has the same µm position.
+    vertices_unused : int
+        Vertices removed because no kept face uses them.
+    faces_degenerate : int
+        Faces dropped because two of their corners are the same vertex after merging.
+    faces_duplicate : int
+        Faces removed by repair: copies of a face with the same three vertices (see
+        :meth:`vecslice.Mesh.repaired`).
+    faces_flipped : int
+        Faces whose winding repair reversed.
+    """
+
+    source: str = "arrays"
+    faces_in: int = 0
+    vertices_in: int = 0
+    vertices_merged: int = 0
+    vertices_unused: int = 0
+    faces_degenerate: int = 0
+    faces_duplicate: int = 0
+    faces_flipped: int = 0
+
+
+class _Edges(NamedTuple):
+    inv: NDArray[np.int64]  # (3F,) undirected edge id of each directed face edge
+    counts: NDArray[np.int64]  # (E,) faces using each undirected edge
+    n_forward: NDArray[np.int64]  # (E,) uses running from lower to higher vertex id
+    forward: NDArray[np.bool_]  # (3F,) directed edge runs from lower to higher id
+
+
+def _edges(faces: NDArray[np.int64], n_vertices: int) -> _Edges:
+    """Undirected edges of ``faces``; directed edge ``3*f + j`` runs corner j → j+1."""
+    a = faces.reshape(-1)
+    b = faces[:, [1, 2, 0]].reshape(-1)
+    forward = a < b
+    key = np.minimum(a, b) * np.int64(max(n_vertices, 1)) + np.maximum(a, b)
+    _, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
+    inv = inv.reshape(-1).astype(np.int64)
+    n_forward = np.bincount(inv, weights=forward, minlength=counts.shape[0])
+    return _Edges(inv, counts.astype(np.int64), n_forward.astype(np.int64), forward)
+
+
+def components(
+    n: int, a: NDArray[np.int64], b: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], int]:
+    """Connected components of the graph on ``n`` nodes with edges ``(a[i], b[i])``.
+
+    Union–find by min-label hooking and full pointer jumping, all in numpy: every
+    round hooks each root to the smallest root next to it, so the number of roots
+    at least halves per round for every component still growing.
+
+    Returns
+    -------
+    labels : ndarray of shape (n,), int64
+        Component of each node, numbered ``0 .. k-1`` in order of first node.
+    k : int
+        Number of components.
+    """
+    parent = np.arange(n, dtype=np.int64)
+    a = np.asarray(a, dtype=np.int64)
+    b = np.asarray(b, dtype=np.int64)
+    while a.size:
+        ra, rb = parent[a], parent[b]
+        cross = ra != rb
+        if not cross.any():
+            break
+        a, b, ra, rb = a[cross], b[cross], ra[cross], rb[cross]
+        lo, hi = np.minimum(ra, rb), np.maximum(ra, rb)
+        np.minimum.at(parent, hi, lo)
+        while True:  # pointer jumping until every node points at its root
+            grand = parent[parent]
+            if np.array_equal(grand, parent):
+                break
+            parent = grand
+    _, first, labels = np.unique(parent, return_index=True, return_inverse=True)
+    # renumber by first node so labels do not depend on np.unique's order
+    rank = np.empty(first.shape[0], dtype=np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(first.shape[0])
+    return rank[labels.reshape(-1)], int(first.shape[0])
+
+
+def _manifold_pairs(
+    e: _Edges,
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]:
+    """Face pairs across edges used by exactly two faces, and whether they agree."""
+    sel = np.flatnonzero(e.counts[e.inv] == 2)
+    sel = sel[np.argsort(e.inv[sel], kind="stable")]
+    e1, e2 = sel[0::2], sel[1::2]
+    agree = e.forward[e1] != e.forward[e2]
+    return e1 // 3, e2 // 3, agree
+
+
+def shells(faces: NDArray[np.int64], n_vertices: int) -> tuple[NDArray[np.int64], int]:
+    """Shell label of each face: faces joined through edges shared by exactly 2 faces.
+
+    This is trimesh's ``split(only_watertight=False)``: two closed cubes that touch
+    along an edge (4 faces on it) are two shells, not one.
+    """
+    fa, fb, _ = _manifold_pairs(_edges(faces, n_vertices))
+    return components(faces.shape[0], fa, fb)
+
+
+def face_signs(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Group faces by vertex set; +1/-1 for each face's winding within its group.
+
+    Returns ``(group, sign)``: faces with the same three vertices share ``group``;
+    ``sign`` is +1 when the face is a rotation of its sorted vertices, -1 otherwise.
+    """
+    s = np.sort(faces, axis=1)
+    order = np.lexsort((s[:, 2], s[:, 1], s[:, 0]))
+    ss = s[order]
+    new = np.ones(faces.shape[0], dtype=bool)
+    new[1:] = (ss[1:] != ss[:-1]).any(axis=1)
+    group = np.empty(faces.shape[0], dtype=np.int64)
+    group[order] = np.cumsum(new) - 1
+    descents = (faces > faces[:, [1, 2, 0]]).sum(axis=1)
+    sign = np.where(descents == 1, 1, -1).astype(np.int64)
+    return group, sign
+
+
+def dedupe_faces(faces: NDArray[np.int64]) -> NDArray[np.bool_]:
+    """Mask of faces to keep: one per vertex set, none where windings cancel.
+
+    In each group of faces with the same three vertices the windings are summed
+    (+1 / -1 relative to the first orientation). A non-zero sum keeps the first
+    face that has the majority winding; a zero sum (a face and its reversed twin,
+    a zero-thickness wall) keeps none.
+    """
+    group, sign = face_signs(faces)
+    net = np.bincount(group, weights=sign).astype(np.int64)
+    cand = np.flatnonzero((net[group] != 0) & (sign == np.sign(net)[group]))
+    _, first = np.unique(group[cand], return_index=True)
+    keep = np.zeros(faces.shape[0], dtype=bool)
+    keep[cand[first]] = True
+    return keep
+
+
+def face_volumes(
+    vertices: NDArray[np.int64], faces: NDArray[np.int64]
+) -> NDArray[np.float64]:
+    """Signed volume (µm³, float64) of the tetrahedron of each face and a fixed point.
+
+    The point is the centre of the bounding box, which keeps the float64 products
+    small; the sum over a closed shell does not depend on it.
+    """
+    if vertices.shape[0] == 0:
+        return np.zeros(faces.shape[0])
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    v = (vertices - (lo + hi) // 2).astype(np.float64)
+    p0, p1, p2 = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
+    return np.einsum("ij,ij->i", p0, np.cross(p1, p2)) / 6.0
+
+
+def orient_faces(
+    vertices: NDArray[np.int64], faces: NDArray[np.int64]
+) -> NDArray[np.bool_]:
+    """Which faces to reverse so each shell is consistently wound and outward.
+
+    Faces are joined across edges used by exactly two faces. Each face gets two
+    nodes (as is, reversed); a joining edge links the pair of states in which the
+    two faces traverse it in opposite directions. The components of this doubled
+    graph split every orientable shell into two opposite classes, so one flip mask
+    orients all shells at once. Then each *closed* shell (every edge traversed
+    equally often in both directions) is reversed if its signed volume is negative,
+    and each open shell keeps whichever orientation the majority of its faces had.
+    Non-orientable shells are left as they are.
+
+    Returns
+    -------
+    ndarray of shape (F,), bool
+        ``True`` for faces to reverse.
+    """
+    n = faces.shape[0]
+    e = _edges(faces, vertices.shape[0])
+    fa, fb, agree = _manifold_pairs(e)
+    src = np.concatenate([fa, fa + n])
+    dst = np.concatenate([np.where(agree, fb, fb + n), np.where(agree, fb + n, fb)])
+    labels, _ = components(2 * n, src, dst)
+    lp, lm = labels[:n], labels[n:]
+    flip = lp > lm
+    orientable = lp != lm
+    _, shell = np.unique(np.minimum(lp, lm), return_inverse=True)
+    shell = shell.reshape(-1)
+    n_shells = int(shell.max()) + 1 if n else 0
+    # closed shells: after the flips, every edge's uses in the shell cancel
+    face_of = np.repeat(np.arange(n), 3)
+    step = np.where(e.forward ^ flip[face_of], 1, -1)
+    key = shell[face_of] * np.int64(e.counts.shape[0]) + e.inv
+    ukey, kinv = np.unique(key, return_inverse=True)
+    net = np.bincount(kinv.reshape(-1), weights=step)
+    is_open = np.zeros(n_shells, dtype=bool)
+    is_open[ukey[net != 0] // e.counts.shape[0]] = True
+    sign = np.where(flip, -1.0, 1.0)
+    vol = np.bincount(shell, weights=face_volumes(vertices, faces) * sign,
+                      minlength=n_shells)
+    size = np.bincount(shell, minlength=n_shells)
+    n_flip = np.bincount(shell, weights=flip, minlength=n_shells)
+    invert = np.where(is_open, 2 * n_flip > size, vol < 0)
+    return (flip ^ invert[shell]) & orientable
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class MeshReport:
+    """Topology and geometry facts of a :class:`vecslice.Mesh`.
+
+    Attributes
+    ----------
+    n_vertices, n_faces, n_edges : int
+        Vertex, face and undirected edge counts.
+    n_bodies : int
+        Shells: faces joined through edges shared by exactly two faces.
+    boundary_edges : int
+        Edges used by one face (holes, open surfaces).
+    nonmanifold_edges : int
+        Edges used by more than two faces.
+    inconsistent_edges : int
+        Edges used by two faces that traverse them in the same direction.
+    duplicate_faces : int
+        Faces beyond the first with the same three vertices (either winding).
+    zero_area_faces : int
+        Faces whose three (distinct) vertices are exactly collinear; kept.
+    volume : float
+        Signed volume in µm³ (positive for outward-wound closed meshes).
+    bounds : ndarray of shape (2, 3), int64
+        Lower and upper corner in µm.
+    load_info : LoadInfo or None
+        What loading and repair changed, when the mesh came from
+        :func:`vecslice.load_mesh` or :meth:`vecslice.Mesh.from_arrays`.
+    """
+
+    n_vertices: int
+    n_faces: int
+    n_edges: int
+    n_bodies: int
+    boundary_edges: int
+    nonmanifold_edges: int
+    inconsistent_edges: int
+    duplicate_faces: int
+    zero_area_faces: int
+    volume: float
+    bounds: NDArray[np.int64]
+    load_info: LoadInfo | None = None
+
+    @property
+    def is_closed(self) -> bool:
+        """Every edge is used by exactly two faces."""
+        return self.boundary_edges == 0 and self.nonmanifold_edges == 0
+
+    @property
+    def is_winding_consistent(self) -> bool:
+        """No two faces traverse a shared edge in the same direction."""
+        return self.inconsistent_edges == 0
+
+    @property
+    def is_watertight(self) -> bool:
+        """Closed and consistently wound."""
+        return self.is_closed and self.is_winding_consistent
+
+    @property
+    def volume_mm3(self) -> float:
+        """Signed volume in mm³."""
+        return self.volume * 1e-9
+
+    def __str__(self) -> str:
+        size = (self.bounds[1] - self.bounds[0]) / 1000.0
+        yes = {True: "yes", False: "no"}
+        lines = [
+            f"vertices            {self.n_vertices:,}",
+            f"faces               {self.n_faces:,}",
+            f"edges               {self.n_edges:,}",
+            f"bodies (shells)     {self.n_bodies:,}",
+            f"size mm             {size[0]:.3f} x {size[1]:.3f} x {size[2]:.3f}",
+            f"watertight          {yes[self.is_watertight]}",
+            f"boundary edges      {self.boundary_edges:,}",
+            f"non-manifold edges  {self.nonmanifold_edges:,}",
+            f"inconsistent edges  {self.inconsistent_edges:,}",
+            f"duplicate faces     {self.duplicate_faces:,}",
+            f"zero-area faces     {self.zero_area_faces:,}",
+            f"volume mm3          {self.volume_mm3:,.3f}",
+        ]
+        li = self.load_info
+        if li is not None:
+            lines += [
+                f"source              {li.source}",
+                f"read                {li.faces_in:,} faces, "
+                f"{li.vertices_in:,} vertices",
+                f"merged vertices     {li.vertices_merged:,}",
+                f"unused vertices     {li.vertices_unused:,}",
+                f"degenerate dropped  {li.faces_degenerate:,}",
+                f"duplicates removed  {li.faces_duplicate:,}",
+                f"faces flipped       {li.faces_flipped:,}",
+            ]
+        return "\n".join(lines)
+
+
+def zero_area_faces(vertices: NDArray[np.int64], faces: NDArray[np.int64]) -> int:
+    """Faces with exactly collinear corners (exact int64: |diff| < 2**31)."""
+    p0 = vertices[faces[:, 0]]
+    d1 = vertices[faces[:, 1]] - p0
+    d2 = vertices[faces[:, 2]] - p0
+    cx = d1[:, 1] * d2[:, 2] - d1[:, 2] * d2[:, 1]
+    cy = d1[:, 2] * d2[:, 0] - d1[:, 0] * d2[:, 2]
+    cz = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    return int(((cx == 0) & (cy == 0) & (cz == 0)).sum())
+
+
+def check_mesh(mesh: Any) -> MeshReport:
+    """Count the defects of a mesh that matter for slicing.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        A vecslice mesh.
+
+    Returns
+    -------
+    MeshReport
+        Edge, face and shell counts, signed volume and bounds; ``str()`` of it is a
+        readable summary.
+
+    Raises
+    ------
+    InputTypeError
+        If ``mesh`` is not a :class:`vecslice.Mesh`.
+
+    Notes
+    -----
+    Edges are undirected vertex pairs. A boundary edge has one face, a non-manifold
+    edge more than two, an inconsistent edge two faces that run along it in the
+    same direction (one of them is inside out). Duplicate faces share all three
+    vertices. Counts are after the vertex merge of :meth:`Mesh.from_arrays`.
+
+    Examples
+    --------
+    >>> import vecslice as vs
+    >>> tet = vs.Mesh.from_arrays([[0, 0, 0], [6, 0, 0], [0, 6, 0], [0, 0, 6]],
+    ...                           [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    >>> r = vs.check_mesh(tet)
+    >>> r.is_watertight, r.n_bodies, r.boundary_edges, r.volume
+    (True, 1, 0, 36.0)
+    """
+    from vecslice.mesh import Mesh
+
+    if not isinstance(mesh, Mesh):
+        raise InputTypeError(
+            f"`mesh` must be a vecslice.Mesh (see vecslice.load_mesh); "
+            f"got {type(mesh).__name__}"
+        )
+    v, f = mesh.vertices, mesh.faces
+    e = _edges(f, v.shape[0])
+    two = e.counts == 2
+    group, _ = face_signs(f)
+    _, n_bodies = shells(f, v.shape[0])
+    return MeshReport(
+        n_vertices=int(v.shape[0]),
+        n_faces=int(f.shape[0]),
+        n_edges=int(e.counts.shape[0]),
+        n_bodies=n_bodies,
+        boundary_edges=int((e.counts == 1).sum()),
+        nonmanifold_edges=int((e.counts > 2).sum()),
+        inconsistent_edges=int((two & (e.n_forward != 1)).sum()),
+        duplicate_faces=int(f.shape[0] - (int(group.max()) + 1 if f.size else 0)),
+        zero_area_faces=zero_area_faces(v, f),
+        volume=float(face_volumes(v, f).sum()),
+        bounds=mesh.bounds,
+        load_info=mesh.load_info,
+    )
