@@ -26,7 +26,7 @@ from vecslice.meshcheck import (
     LoadInfo,
     MeshReport,
     _edges,
-    check_mesh,
+    build_report,
     dedupe_faces,
     face_volumes,
     orient_faces,
@@ -405,6 +405,48 @@ class Mesh:
         else:
             dims = ""
         return f"Mesh({self.n_vertices} vertices, {self.n_faces} faces{dims})"
+
+
+def check_mesh(mesh: Any) -> MeshReport:
+    """Count the defects of a mesh that matter for slicing.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        A vecslice mesh.
+
+    Returns
+    -------
+    MeshReport
+        Edge, face and shell counts, signed volume and bounds; ``str()`` of it is a
+        readable summary.
+
+    Raises
+    ------
+    InputTypeError
+        If ``mesh`` is not a :class:`vecslice.Mesh`.
+
+    Notes
+    -----
+    Edges are undirected vertex pairs. A boundary edge has one face, a non-manifold
+    edge more than two, an inconsistent edge two faces that run along it in the
+    same direction (one of them is inside out). Duplicate faces share all three
+    vertices. Counts are after the vertex merge of :meth:`Mesh.from_arrays`.
+
+    Examples
+    --------
+    >>> tet = Mesh.from_arrays([[0, 0, 0], [6, 0, 0], [0, 6, 0], [0, 0, 6]],
+    ...                        [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    >>> r = check_mesh(tet)
+    >>> r.is_watertight, r.n_bodies, r.boundary_edges, r.volume
+    (True, 1, 0, 36.0)
+    """
+    if not isinstance(mesh, Mesh):
+        raise InputTypeError(
+            f"`mesh` must be a vecslice.Mesh (see vecslice.load_mesh); "
+            f"got {type(mesh).__name__}"
+        )
+    return build_report(mesh.vertices, mesh.faces, mesh.load_info)
 
 
 def _check_scale(scale: object) -> float:

@@ -10,14 +10,12 @@ over faces or vertices in Python.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from vecslice.errors import InputTypeError
-
-__all__ = ["LoadInfo", "MeshReport", "check_mesh"]
+__all__ = ["LoadInfo", "MeshReport", "build_report"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -336,49 +334,13 @@ def zero_area_faces(vertices: NDArray[np.int64], faces: NDArray[np.int64]) -> in
     return int(((cx == 0) & (cy == 0) & (cz == 0)).sum())
 
 
-def check_mesh(mesh: Any) -> MeshReport:
-    """Count the defects of a mesh that matter for slicing.
-
-    Parameters
-    ----------
-    mesh : Mesh
-        A vecslice mesh.
-
-    Returns
-    -------
-    MeshReport
-        Edge, face and shell counts, signed volume and bounds; ``str()`` of it is a
-        readable summary.
-
-    Raises
-    ------
-    InputTypeError
-        If ``mesh`` is not a :class:`vecslice.Mesh`.
-
-    Notes
-    -----
-    Edges are undirected vertex pairs. A boundary edge has one face, a non-manifold
-    edge more than two, an inconsistent edge two faces that run along it in the
-    same direction (one of them is inside out). Duplicate faces share all three
-    vertices. Counts are after the vertex merge of :meth:`Mesh.from_arrays`.
-
-    Examples
-    --------
-    >>> import vecslice as vs
-    >>> tet = vs.Mesh.from_arrays([[0, 0, 0], [6, 0, 0], [0, 6, 0], [0, 0, 6]],
-    ...                           [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
-    >>> r = vs.check_mesh(tet)
-    >>> r.is_watertight, r.n_bodies, r.boundary_edges, r.volume
-    (True, 1, 0, 36.0)
-    """
-    from vecslice.mesh import Mesh
-
-    if not isinstance(mesh, Mesh):
-        raise InputTypeError(
-            f"`mesh` must be a vecslice.Mesh (see vecslice.load_mesh); "
-            f"got {type(mesh).__name__}"
-        )
-    v, f = mesh.vertices, mesh.faces
+def build_report(
+    vertices: NDArray[np.int64],
+    faces: NDArray[np.int64],
+    load_info: LoadInfo | None = None,
+) -> MeshReport:
+    """The :class:`MeshReport` of validated arrays (see ``vecslice.check_mesh``)."""
+    v, f = vertices, faces
     e = _edges(f, v.shape[0])
     two = e.counts == 2
     group, _ = face_signs(f)
@@ -394,6 +356,6 @@ def check_mesh(mesh: Any) -> MeshReport:
         duplicate_faces=int(f.shape[0] - (int(group.max()) + 1 if f.size else 0)),
         zero_area_faces=zero_area_faces(v, f),
         volume=float(face_volumes(v, f).sum()),
-        bounds=mesh.bounds,
-        load_info=mesh.load_info,
+        bounds=np.stack([v.min(axis=0), v.max(axis=0)]),
+        load_info=load_info,
     )
