@@ -87,8 +87,11 @@ def _tail_side(st, g):
 
 @njit(I64(I64_1D, _STATE, I64, I64), cache=True, nogil=True)
 def _terminus_role(ring_offsets, st, c, side):
-    """-1 if (c, side) is not a free end of an open group, 0 if it is the group's
-    start, 1 if it is the group's end."""
+    """Role of chain end (c, side): its group's start (0), end (1) or neither (-1).
+
+    Neither: the end is inside a joined chain, the group is closed or the chain is
+    empty.
+    """
     if ring_offsets[c + 1] == ring_offsets[c]:
         return -1
     g = _find(st, c)
