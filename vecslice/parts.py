@@ -1,0 +1,556 @@
+"""Layer parts: union each layer's loops and split it into outline + holes.
+
+This is the only module that imports manifold3d. Rings go to manifold3d's
+``CrossSection`` (Clipper2 inside) as float64 arrays, which are exact for integers
+below ``2**30``; results come back through one ``np.concatenate`` and are rounded
+to int64 µm once. Everything after the manifold3d calls (orientation, degenerate
+rings, ordering) is whole-array numpy over all layers at once.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import manifold3d
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from kernels.rings import ring_area2
+from vecslice._validate import as_coords, as_offsets, check_option
+from vecslice.errors import InputTypeError
+from vecslice.paths import LayerPaths
+
+__all__ = ["LayerParts", "apply_slicing_tolerance", "make_parts", "to_shapely"]
+
+_MAX_PAIRS = 10_000_000  # (hole, outline) box tests before falling back to decompose
+_KEY_SHIFT = np.int64(2**31)  # |y| < 2**30, so x * 2**31 + y orders like (x, y)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class LayerParts:
+    """Layers split into parts (CuraEngine's LayerParts), with nested offsets.
+
+    Attributes
+    ----------
+    coords : ndarray of shape (N, 2), int64
+        All vertices in µm.
+    ring_offsets : ndarray of shape (R + 1,), int64
+        Ring starts in ``coords``.
+    part_offsets : ndarray of shape (P + 1,), int64
+        Part starts in the rings. The first ring of a part is its outline (CCW,
+        ``ring_area2 > 0``); the others are its holes (CW, ``ring_area2 < 0``).
+    layer_offsets : ndarray of shape (L + 1,), int64
+        Layer starts in the parts.
+
+    Examples
+    --------
+    >>> sq = [[0, 0], [10, 0], [10, 10], [0, 10]]
+    >>> p = LayerParts(sq, [0, 4], [0, 1], [0, 0, 1])
+    >>> p.n_layers, p.n_parts, p.part(1, 0)[0].tolist()
+    (2, 1, [[0, 0], [10, 0], [10, 10], [0, 10]])
+
+    In plain Python, ring ``r`` of part ``j`` of layer ``k`` is::
+
+        q = layer_offsets[k] + j
+        r_abs = part_offsets[q] + r
+        coords[ring_offsets[r_abs]:ring_offsets[r_abs + 1]]
+    """
+
+    coords: NDArray[np.int64]
+    ring_offsets: NDArray[np.int64]
+    part_offsets: NDArray[np.int64]
+    layer_offsets: NDArray[np.int64]
+
+    def __init__(
+        self,
+        coords: ArrayLike,
+        ring_offsets: ArrayLike,
+        part_offsets: ArrayLike,
+        layer_offsets: ArrayLike,
+    ) -> None:
+        c = as_coords(coords, "coords")
+        r = as_offsets(ring_offsets, c.shape[0], "ring_offsets")
+        p = as_offsets(part_offsets, r.shape[0] - 1, "part_offsets")
+        lo = as_offsets(layer_offsets, p.shape[0] - 1, "layer_offsets")
+        arrays = []
+        for new, old in ((c, coords), (r, ring_offsets), (p, part_offsets),
+                         (lo, layer_offsets)):
+            new = new.copy() if new is old else new
+            new.flags.writeable = False
+            arrays.append(new)
+        for name, a in zip(LayerParts.__slots__, arrays, strict=True):
+            object.__setattr__(self, name, a)
+
+    @classmethod
+    def _trusted(cls, *arrays: NDArray[np.int64]) -> LayerParts:
+        """Wrap freshly computed, valid (coords, ring, part, layer offsets)."""
+        self = object.__new__(cls)
+        for name, a in zip(cls.__slots__, arrays, strict=True):
+            a.flags.writeable = False
+            object.__setattr__(self, name, a)
+        return self
+
+    @property
+    def n_layers(self) -> int:
+        """Number of layers ``L``."""
+        return int(self.layer_offsets.shape[0] - 1)
+
+    @property
+    def n_parts(self) -> int:
+        """Number of parts ``P`` over all layers."""
+        return int(self.part_offsets.shape[0] - 1)
+
+    def part(self, k: int, j: int) -> tuple[NDArray[np.int64], list[NDArray[np.int64]]]:
+        """Part ``j`` of layer ``k`` as ``(outline, [holes])`` read-only views."""
+        q = int(self.layer_offsets[k]) + j
+        if not 0 <= j < self.layer_offsets[k + 1] - self.layer_offsets[k]:
+            raise IndexError(f"`j` must be a part index of layer {k}; got {j}")
+        ro = self.ring_offsets
+        rings = [self.coords[ro[i] : ro[i + 1]]
+                 for i in range(self.part_offsets[q], self.part_offsets[q + 1])]
+        return rings[0], rings[1:]
+
+    def __repr__(self) -> str:
+        return (
+            f"LayerParts({self.n_layers} layers, {self.n_parts} parts, "
+            f"{self.ring_offsets.shape[0] - 1} rings, {self.coords.shape[0]} vertices)"
+        )
+
+
+def _check_loops(loops: Any) -> LayerPaths:
+    if not isinstance(loops, LayerPaths):
+        raise InputTypeError(
+            f"`loops` must be a vecslice.LayerPaths (see vecslice.slice_contours); "
+            f"got {type(loops).__name__}"
+        )
+    return loops
+
+
+def _cross_sections(
+    loops: LayerPaths, fillrule: manifold3d.FillRule
+) -> list[manifold3d.CrossSection]:
+    """One CrossSection per layer: all its rings with ``fillrule`` (batched split)."""
+    rings = np.split(loops.coords.astype(np.float64), loops.ring_offsets[1:-1])
+    lo = loops.layer_offsets.tolist()
+    cs = manifold3d.CrossSection
+    return [cs(rings[lo[k] : lo[k + 1]], fillrule) for k in range(len(lo) - 1)]
+
+
+def _gather(polys: list[Any]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Concatenate float (n, 2) polygons in one call; return coords and lengths."""
+    if not polys:
+        return np.empty((0, 2), np.float64), np.empty(0, np.int64)
+    lens = np.fromiter((len(p) for p in polys), np.int64, len(polys))
+    return np.concatenate(polys), lens
+
+
+def _offsets(lens: NDArray[np.int64]) -> NDArray[np.int64]:
+    out = np.zeros(lens.shape[0] + 1, dtype=np.int64)
+    np.cumsum(lens, out=out[1:])
+    return out
+
+
+def _vertex_keys(coords: NDArray[np.int64]) -> NDArray[np.int64]:
+    """``x * 2**31 + y``: one int64 per vertex, ordered like (x, y) tuples."""
+    key = np.multiply(coords[:, 0], _KEY_SHIFT)
+    key += coords[:, 1]
+    return key
+
+
+def _dedupe(
+    coords: NDArray[np.int64], key: NDArray[np.int64], lens: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """Drop vertices equal to their cyclic predecessor (rounding can merge them)."""
+    if key.shape[0] == 0:
+        return coords, key, lens
+    offsets = _offsets(lens)
+    same = np.empty(key.shape[0], dtype=bool)
+    same[0] = False
+    np.equal(key[1:], key[:-1], out=same[1:])
+    nz = lens > 0
+    same[offsets[:-1][nz]] = key[offsets[:-1][nz]] == key[offsets[1:][nz] - 1]
+    if not same.any():
+        return coords, key, lens
+    keep = ~same
+    ring = np.repeat(np.arange(lens.shape[0]), lens)
+    lens = np.bincount(ring[keep], minlength=lens.shape[0]).astype(np.int64)
+    return np.compress(keep, coords, axis=0), key[keep], lens
+
+
+def _signed_area(coords: NDArray[np.float64], lens: NDArray[np.int64]) -> NDArray[Any]:
+    """Twice the signed area of float rings (trapezoids, y relative to the ring).
+
+    Only its sign is used: it is manifold3d's orientation before rounding.
+    """
+    out = np.zeros(lens.shape[0])
+    nz = lens > 0
+    if not nz.any():
+        return out
+    offsets = _offsets(lens)
+    starts, ends = offsets[:-1][nz], offsets[1:][nz]
+    x, y = coords[:, 0], coords[:, 1] - np.repeat(coords[starts, 1], lens[nz])
+    dx = np.empty_like(x)
+    np.subtract(x[1:], x[:-1], out=dx[:-1])
+    dx[ends - 1] = x[starts] - x[ends - 1]  # closing edges
+    ys = np.empty_like(y)
+    np.add(y[1:], y[:-1], out=ys[:-1])
+    ys[ends - 1] = y[starts] + y[ends - 1]
+    dx *= ys
+    out[nz] = -np.add.reduceat(dx, starts)
+    return out
+
+
+def _ring_keys(
+    key: NDArray[np.int64], lens: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Key and position of each ring's smallest (x, y) vertex (0 for empty rings)."""
+    ring_min = np.zeros(lens.shape[0], dtype=np.int64)
+    shift = np.zeros(lens.shape[0], dtype=np.int64)
+    nz = lens > 0
+    if not nz.any():
+        return ring_min, shift
+    starts = _offsets(lens)[:-1]
+    ring_min[nz] = np.minimum.reduceat(key, starts[nz])
+    hits = np.flatnonzero(key == np.repeat(ring_min, lens))
+    ring = np.repeat(np.arange(lens.shape[0]), lens)[hits]
+    first = np.ones(hits.shape[0], dtype=bool)
+    np.not_equal(ring[1:], ring[:-1], out=first[1:])
+    shift[nz] = hits[first] - starts[nz]
+    return ring_min, shift
+
+
+def _take_rings(
+    coords: NDArray[np.int64],
+    offsets: NDArray[np.int64],
+    order: NDArray[np.int64],
+    shift: NDArray[np.int64],
+    flip: NDArray[np.bool_],
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Gather rings ``order`` (one numpy gather for all).
+
+    Ring ``r`` starts at its vertex ``shift[r]`` and is reversed (keeping that
+    start) where ``flip[r]``.
+    """
+    lens = np.diff(offsets)[order]
+    new_offsets = _offsets(lens)
+    sh = shift[order]
+    # position in the ring, counted from the start vertex: in [0, 2 * len)
+    src = np.arange(new_offsets[-1], dtype=np.int64)
+    src -= np.repeat(new_offsets[:-1] - sh, lens)
+    ln = np.repeat(lens, lens)
+    np.subtract(src, ln, out=src, where=src >= ln)
+    fl = np.flatnonzero(flip[order])
+    if fl.size:  # reversed rings: position (shift - local) mod len
+        fo, idx = _ragged_ranges(new_offsets, fl)
+        local = idx - np.repeat(new_offsets[fl], np.diff(fo))
+        src[idx] = (np.repeat(sh[fl], np.diff(fo)) - local) % np.repeat(
+            lens[fl], np.diff(fo)
+        )
+    src += np.repeat(offsets[:-1][order], lens)
+    return np.take(coords, src, axis=0), new_offsets
+
+
+def _ragged_ranges(
+    offsets: NDArray[np.int64], sel: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Offsets and flat indices of elements ``sel`` of a ragged level."""
+    lens = offsets[sel + 1] - offsets[sel]
+    out = _offsets(lens)
+    idx = np.arange(out[-1], dtype=np.int64)
+    idx += np.repeat(offsets[sel] - out[:-1], lens)
+    return out, idx
+
+
+def _close_rings(
+    coords: NDArray[np.int64], offsets: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Rings ``offsets[i]:offsets[i + 1]`` with their first vertex repeated.
+
+    GeoArrow/shapely layout; the returned offsets start at 0.
+    """
+    lens = np.diff(offsets)
+    new_offsets = _offsets(lens + 1)
+    local = np.arange(new_offsets[-1], dtype=np.int64)
+    local -= np.repeat(new_offsets[:-1], lens + 1)
+    local %= np.maximum(np.repeat(lens, lens + 1), 1)
+    return coords[local + np.repeat(offsets[:-1], lens + 1)], new_offsets
+
+
+def _assemble(
+    coords: NDArray[np.int64],
+    lens: NDArray[np.int64],
+    layer: NDArray[np.int64],
+    pid: NDArray[np.int64],
+    area_f: NDArray[Any],
+    n_layers: int,
+) -> LayerParts:
+    """Rings labelled by layer and part id → sorted, oriented LayerParts.
+
+    The outline of a part is its ring of largest float area magnitude; outlines
+    are made CCW and holes CW, zero-area holes and parts with a zero-area outline
+    are dropped, every ring is rotated to start at its smallest (x, y) vertex, and
+    parts are sorted by that vertex of their outline, holes likewise.
+    """
+    key = _vertex_keys(coords)
+    coords, key, lens = _dedupe(coords, key, lens)
+    offsets = _offsets(lens)
+    area2 = ring_area2(coords, offsets)
+    n = lens.shape[0]
+    idx = np.arange(n, dtype=np.int64)
+    _, pid = np.unique(pid, return_inverse=True)
+    pid = pid.reshape(-1).astype(np.int64)
+    order = np.lexsort((idx, -np.abs(area_f), pid))
+    is_outline = np.zeros(n, dtype=bool)
+    if n:
+        head = np.ones(n, dtype=bool)
+        head[1:] = pid[order[1:]] != pid[order[:-1]]
+        is_outline[order[head]] = True
+    outline_of = np.zeros(int(pid.max()) + 1 if n else 0, dtype=np.int64)
+    outline_of[pid[is_outline]] = idx[is_outline]
+    keep = (area2 != 0) & (area2[outline_of[pid]] != 0)
+    flip = np.where(is_outline, area2 < 0, area2 > 0)
+    ring_min, shift = _ring_keys(key, lens)
+    part_key = ring_min[outline_of[pid]]
+    kept = idx[keep]
+    order = kept[
+        np.lexsort((kept, ring_min[kept], ~is_outline[kept], pid[kept],
+                    part_key[kept], layer[kept]))
+    ]
+    out_coords, new_offsets = _take_rings(coords, offsets, order, shift, flip)
+    out_pid = pid[order]
+    new_part = np.ones(order.shape[0], dtype=bool)
+    new_part[1:] = out_pid[1:] != out_pid[:-1]
+    part_offsets = np.append(np.flatnonzero(new_part), order.shape[0]).astype(np.int64)
+    part_layer = layer[order][new_part]
+    layer_offsets = _offsets(np.bincount(part_layer, minlength=n_layers))
+    return LayerParts._trusted(out_coords, new_offsets, part_offsets, layer_offsets)
+
+
+def _label_parts(
+    f: NDArray[np.float64],
+    lens: NDArray[np.int64],
+    layer: NDArray[np.int64],
+    area_f: NDArray[Any],
+    n_layers: int,
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Part id of every ring of manifold3d's output, without point-in-polygon.
+
+    Rings are outlines (area > 0) or holes. In a layer with one outline every hole
+    is in it; with no hole every outline is a part. Otherwise a hole whose bounding
+    box lies in the box of exactly one outline of its layer belongs to that outline
+    (its true parent is always such a candidate). Returns ``(pid, unresolved)``:
+    part ids (the ring index of the outline) and the layers where some hole had
+    several candidates.
+    """
+    n = lens.shape[0]
+    idx = np.arange(n, dtype=np.int64)
+    pos = area_f > 0
+    n_pos = np.bincount(layer[pos], minlength=n_layers)
+    n_neg = np.bincount(layer[~pos], minlength=n_layers)
+    single = np.full(n_layers, -1, dtype=np.int64)
+    one = n_pos[layer[pos]] == 1
+    single[layer[pos][one]] = idx[pos][one]
+    pid = np.where(single[layer] >= 0, single[layer], idx)
+    ambiguous = (n_pos >= 2) & (n_neg >= 1)
+    if not ambiguous.any():
+        return pid, np.empty(0, np.int64)
+    in_amb = ambiguous[layer]
+    holes, outs = np.flatnonzero(in_amb & ~pos), np.flatnonzero(in_amb & pos)
+    lo = np.searchsorted(layer[outs], layer[holes], side="left")
+    cnt = np.searchsorted(layer[outs], layer[holes], side="right") - lo
+    if int(cnt.sum()) > _MAX_PAIRS:
+        return pid, np.flatnonzero(ambiguous)
+    sub = f[np.repeat(in_amb, lens)]
+    sub_starts = _offsets(lens[in_amb])[:-1]
+    box = np.zeros((n, 4))
+    box[in_amb] = np.stack([
+        np.minimum.reduceat(sub[:, 0], sub_starts),
+        np.minimum.reduceat(sub[:, 1], sub_starts),
+        np.maximum.reduceat(sub[:, 0], sub_starts),
+        np.maximum.reduceat(sub[:, 1], sub_starts),
+    ], axis=1)
+    hole_of_pair = np.repeat(np.arange(holes.shape[0]), cnt)
+    h = holes[hole_of_pair]
+    o = outs[np.arange(hole_of_pair.shape[0]) - np.repeat(_offsets(cnt)[:-1] - lo, cnt)]
+    ok = ((box[o, :2] <= box[h, :2]) & (box[o, 2:] >= box[h, 2:])).all(axis=1)
+    n_cand = np.bincount(hole_of_pair[ok], minlength=holes.shape[0])
+    pid[h[ok]] = o[ok]
+    return pid, np.unique(layer[holes[n_cand != 1]])
+
+
+def make_parts(
+    loops: LayerPaths, *, union_overlapping_volumes: bool = True
+) -> LayerParts:
+    """Union each layer's closed loops and split the result into parts.
+
+    Parameters
+    ----------
+    loops : LayerPaths
+        Closed rings per layer in µm (e.g. from :func:`vecslice.slice_contours`);
+        ``loops.open`` is ignored.
+    union_overlapping_volumes : bool, default True
+        Fill rule of the union: NonZero (overlapping bodies merge) if True, else
+        EvenOdd (overlaps cancel).
+
+    Returns
+    -------
+    LayerParts
+        ``L`` layers of parts: each an outline (CCW) followed by the holes directly
+        inside it (CW). An island inside a hole is a separate part.
+
+    Notes
+    -----
+    manifold3d's ``CrossSection`` (Clipper2) does the union, once per layer, and its
+    ``decompose`` is called only for layers that have several outlines *and* holes.
+    Coordinates are rounded back to int64 once; input vertices that survive the
+    union keep their exact values. Rings that rounding makes zero-area are dropped.
+    Parts in a layer are sorted by the smallest (x, y) vertex of their outline, holes
+    likewise, and every ring starts at its smallest (x, y) vertex, so the result
+    does not depend on manifold3d's internal order.
+
+    Examples
+    --------
+    >>> outer = [[0, 0], [30, 0], [30, 30], [0, 30]]
+    >>> hole = [[10, 10], [10, 20], [20, 20], [20, 10]]
+    >>> loops = LayerPaths(outer + hole, [0, 4, 8], [0, 2])
+    >>> parts = make_parts(loops)
+    >>> parts.n_parts, ring_area2(parts.coords, parts.ring_offsets).tolist()
+    (1, [1800, -200])
+    """
+    loops = _check_loops(loops)
+    rule = (manifold3d.FillRule.NonZero if union_overlapping_volumes
+            else manifold3d.FillRule.EvenOdd)
+    n_layers = loops.n_layers
+    sections = _cross_sections(loops, rule)
+    polys = [cs.to_polygons() for cs in sections]
+    f, lens = _gather([p for layer_polys in polys for p in layer_polys])
+    layer = np.repeat(np.arange(n_layers, dtype=np.int64),
+                      np.fromiter(map(len, polys), np.int64, n_layers))
+    area_f = _signed_area(f, lens)
+    pid, unresolved = _label_parts(f, lens, layer, area_f, n_layers)
+    if unresolved.size:  # islands in holes: let manifold3d nest these layers
+        parts = [(k, q) for k in unresolved.tolist() for q in sections[k].decompose()]
+        part_polys = [q.to_polygons() for _, q in parts]
+        f2, lens2 = _gather([p for pp in part_polys for p in pp])
+        per_part = np.fromiter(map(len, part_polys), np.int64, len(parts))
+        keep = ~np.isin(layer, unresolved)
+        f = np.concatenate([f[np.repeat(keep, lens)], f2])
+        layer = np.concatenate([
+            layer[keep], np.repeat(np.array([k for k, _ in parts], np.int64), per_part)
+        ])
+        pid = np.concatenate([
+            pid[keep], lens.shape[0] + np.repeat(np.arange(len(parts)), per_part)
+        ])
+        area_f = np.concatenate([area_f[keep], _signed_area(f2, lens2)])
+        lens = np.concatenate([lens[keep], lens2])
+    coords = np.rint(f).astype(np.int64)
+    return _assemble(coords, lens, layer, pid, area_f, n_layers)
+
+
+def apply_slicing_tolerance(
+    loops: LayerPaths, mode: Literal["middle", "inclusive", "exclusive"]
+) -> LayerPaths:
+    """Post-process raw slices for CuraEngine's ``slicing_tolerance``.
+
+    Parameters
+    ----------
+    loops : LayerPaths
+        Raw closed loops per layer, sliced at the heights of ``mode``'s schedule
+        (see :func:`vecslice.layer_heights`).
+    mode : {'middle', 'inclusive', 'exclusive'}
+        'middle' returns ``loops`` itself. 'inclusive' replaces layer ``n`` by the
+        union of raw layers ``n`` and ``n + 1`` (each filled NonZero); the top
+        layer stays raw. 'exclusive' replaces layer ``n`` by the intersection of
+        raw layers ``n`` and ``n + 1`` (each filled EvenOdd) and clears the top
+        layer.
+
+    Returns
+    -------
+    LayerPaths
+        Closed rings (outlines CCW, holes CW) with ``loops.open`` passed through.
+
+    Examples
+    --------
+    >>> a = [[0, 0], [20, 0], [20, 10], [0, 10]]
+    >>> b = [[10, 0], [30, 0], [30, 10], [10, 10]]
+    >>> loops = LayerPaths(a + b, [0, 4, 8], [0, 1, 2])
+    >>> apply_slicing_tolerance(loops, "inclusive").layer_area2().tolist()
+    [600, 400]
+    >>> apply_slicing_tolerance(loops, "exclusive").layer_area2().tolist()
+    [200, 0]
+    """
+    loops = _check_loops(loops)
+    check_option(mode, ("middle", "inclusive", "exclusive"), "mode")
+    if mode == "middle" or loops.n_layers == 0:
+        return loops
+    if mode == "inclusive":
+        s = _cross_sections(loops, manifold3d.FillRule.NonZero)
+        out = [a + b for a, b in itertools.pairwise(s)] + [s[-1]]
+    else:
+        s = _cross_sections(loops, manifold3d.FillRule.EvenOdd)
+        out = [a ^ b for a, b in itertools.pairwise(s)]
+        out.append(manifold3d.CrossSection())
+    polys = [cs.to_polygons() for cs in out]
+    f, lens = _gather([p for layer_polys in polys for p in layer_polys])
+    layer = np.repeat(np.arange(len(polys), dtype=np.int64),
+                      np.fromiter(map(len, polys), np.int64, len(polys)))
+    area_f = _signed_area(f, lens)
+    coords = np.rint(f).astype(np.int64)
+    coords, _, lens = _dedupe(coords, _vertex_keys(coords), lens)
+    offsets = _offsets(lens)
+    area2 = ring_area2(coords, offsets)
+    order = np.flatnonzero(area2 != 0)
+    flip = (area2 > 0) != (area_f > 0)
+    coords, ring_offsets = _take_rings(
+        coords, offsets, order, np.zeros_like(lens), flip
+    )
+    layer_offsets = _offsets(np.bincount(layer[order], minlength=len(polys)))
+    return LayerPaths._trusted(coords, ring_offsets, layer_offsets, loops.open)
+
+
+def to_shapely(parts: Any, k: int, *, scale: float = 1e-3) -> Any:
+    """Layer ``k`` of a parts container as a shapely MultiPolygon.
+
+    Parameters
+    ----------
+    parts : LayerParts or SlicedModel
+        Anything with ``coords``, ``ring_offsets``, ``part_offsets`` and
+        ``layer_offsets``.
+    k : int
+        Layer index (negative counts from the end).
+    scale : float, default 1e-3
+        Factor from µm to the output unit (default: millimetres).
+
+    Returns
+    -------
+    shapely.MultiPolygon
+        One polygon per part, rings closed as shapely requires.
+
+    Examples
+    --------
+    >>> p = LayerParts([[0, 0], [1000, 0], [0, 1000]], [0, 3], [0, 1], [0, 1])
+    >>> to_shapely(p, 0).area
+    0.5
+    """
+    try:
+        import shapely
+    except ImportError:
+        raise ImportError(
+            "shapely is required for to_shapely(); pip install shapely"
+        ) from None
+    n_layers = parts.layer_offsets.shape[0] - 1
+    if not isinstance(k, (int, np.integer)) or not -n_layers <= k < n_layers:
+        raise IndexError(f"`k` must be a layer index in [0, {n_layers}); got {k!r}")
+    k = int(k) % n_layers
+    q0, q1 = (int(x) for x in parts.layer_offsets[k : k + 2])
+    part_offsets = parts.part_offsets[q0 : q1 + 1]
+    r0, r1 = int(part_offsets[0]), int(part_offsets[-1])
+    offsets = parts.ring_offsets[r0 : r1 + 1]
+    closed, ring_offsets = _close_rings(parts.coords, offsets)
+    return shapely.from_ragged_array(
+        shapely.GeometryType.MULTIPOLYGON,
+        closed * scale,
+        (ring_offsets, part_offsets - r0, np.array([0, q1 - q0], dtype=np.int64)),
+    )[0]
