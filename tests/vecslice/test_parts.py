@@ -1,0 +1,347 @@
+"""Tests for vecslice.parts: make_parts, apply_slicing_tolerance, to_shapely."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+import trimesh
+from hypothesis import given
+from hypothesis import strategies as st
+
+from kernels.rings import ring_area2
+from vecslice import InputTypeError, LayerPaths, SettingsError
+from vecslice.parts import LayerParts, apply_slicing_tolerance, make_parts, to_shapely
+
+
+def rect(x0, y0, x1, y1, *, cw=False):
+    r = [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
+    return r[::-1] if cw else r
+
+
+def stack(*layers):
+    """LayerPaths from a list of layers, each a list of rings."""
+    rings = [
+        np.asarray(r, dtype=np.int64).reshape(-1, 2) for lay in layers for r in lay
+    ]
+    lens = [len(r) for r in rings]
+    coords = np.concatenate(rings) if rings else np.empty((0, 2), np.int64)
+    return LayerPaths(
+        coords,
+        np.concatenate([[0], np.cumsum(lens)]).astype(np.int64),
+        np.concatenate([[0], np.cumsum([len(x) for x in layers])]).astype(np.int64),
+    )
+
+
+def check_invariants(parts: LayerParts) -> np.ndarray:
+    """Layout, orientation and no-repeat invariants; returns ring area2."""
+    LayerParts(
+        parts.coords, parts.ring_offsets, parts.part_offsets, parts.layer_offsets
+    )
+    assert (np.diff(parts.part_offsets) >= 1).all()
+    assert (np.diff(parts.ring_offsets) >= 3).all()
+    a2 = ring_area2(parts.coords, parts.ring_offsets)
+    is_outline = np.zeros(len(a2), bool)
+    is_outline[parts.part_offsets[:-1]] = True
+    assert (a2[is_outline] > 0).all()
+    assert (a2[~is_outline] < 0).all()
+    ro = parts.ring_offsets
+    for i in range(len(ro) - 1):  # no vertex equal to its cyclic predecessor
+        r = parts.coords[ro[i] : ro[i + 1]]
+        assert (r != np.roll(r, 1, axis=0)).any(axis=1).all()
+    return a2
+
+
+def layer_area2(parts: LayerParts) -> np.ndarray:
+    a2 = ring_area2(parts.coords, parts.ring_offsets)
+    ring_part = np.repeat(np.arange(parts.n_parts), np.diff(parts.part_offsets))
+    part_layer = np.repeat(np.arange(parts.n_layers), np.diff(parts.layer_offsets))
+    return np.bincount(part_layer[ring_part], weights=a2, minlength=parts.n_layers)
+
+
+def test_nested_squares_island_in_hole_is_a_separate_part():
+    loops = stack(
+        [rect(0, 0, 100, 100), rect(10, 10, 90, 90, cw=True), rect(20, 20, 80, 80)]
+    )
+    parts = make_parts(loops)
+    a2 = check_invariants(parts)
+    assert parts.n_parts == 2
+    assert np.diff(parts.part_offsets).tolist() == [2, 1]
+    assert a2.tolist() == [20000, -12800, 7200]
+    outline, holes = parts.part(0, 0)
+    assert outline.tolist() == rect(0, 0, 100, 100)  # starts at min (x, y), CCW
+    assert [h.tolist() for h in holes] == [[[10, 10], [10, 90], [90, 90], [90, 10]]]
+
+
+def test_island_with_hole_inside_a_hole_and_a_second_body():
+    # needs manifold3d's decompose: the inner hole has two candidate outlines
+    loops = stack(
+        [
+            rect(0, 0, 100, 100),
+            rect(10, 10, 90, 90, cw=True),
+            rect(20, 20, 80, 80),
+            rect(30, 30, 70, 70, cw=True),
+            rect(200, 0, 300, 100),
+            rect(210, 10, 220, 20, cw=True),
+        ]
+    )
+    parts = make_parts(loops)
+    a2 = check_invariants(parts)
+    assert np.diff(parts.part_offsets).tolist() == [2, 2, 2]
+    assert a2.tolist() == [20000, -12800, 7200, -3200, 20000, -200]
+    assert parts.part(0, 1)[0].min(axis=0).tolist() == [20, 20]
+    assert parts.part(0, 2)[0].min(axis=0).tolist() == [200, 0]
+
+
+def test_two_overlapping_squares_nonzero_merge_evenodd_xor():
+    loops = stack([rect(0, 0, 20, 20), rect(10, 10, 30, 30)])
+    merged = make_parts(loops)
+    check_invariants(merged)
+    assert merged.n_parts == 1
+    assert layer_area2(merged).tolist() == [2 * 700]
+    xor = make_parts(loops, union_overlapping_volumes=False)
+    check_invariants(xor)
+    assert layer_area2(xor).tolist() == [2 * 600]
+
+
+def test_same_orientation_overlap_nonzero_vs_evenodd():
+    loops = stack([rect(0, 0, 30, 30), rect(10, 10, 20, 20)])  # both CCW
+    assert layer_area2(make_parts(loops)).tolist() == [1800]
+    xor = make_parts(loops, union_overlapping_volumes=False)
+    check_invariants(xor)
+    assert xor.n_parts == 1 and layer_area2(xor).tolist() == [1800 - 200]
+
+
+def test_plate_with_five_holes_is_one_part_with_sorted_holes():
+    holes = [
+        rect(x, y, x + 10, y + 10, cw=True)
+        for x, y in [(80, 10), (10, 10), (50, 30), (10, 40), (30, 10)]
+    ]
+    parts = make_parts(stack([rect(0, 0, 100, 60), *holes]))
+    a2 = check_invariants(parts)
+    assert parts.n_parts == 1 and parts.part_offsets.tolist() == [0, 6]
+    assert a2.tolist() == [12000] + [-200] * 5
+    starts = [h[0].tolist() for h in parts.part(0, 0)[1]]
+    assert (
+        starts == sorted(starts) == [[10, 10], [10, 40], [30, 10], [50, 30], [80, 10]]
+    )
+
+
+def test_integer_vertices_are_kept_exactly():
+    rng = np.random.default_rng(7)
+    big = 2**30 - 1
+    rings = [rect(-big, -big, -big + 1000, -big + 3), rect(big - 5, big - 9, big, big)]
+    for i in range(20):
+        x, y = (int(v) for v in rng.integers(-(10**7), 10**7, 2))
+        x += (i - 10) * 10**8
+        rings.append(rect(x, y, x + 12345, y + 777))
+    parts = make_parts(stack(rings))
+    check_invariants(parts)
+    assert parts.n_parts == len(rings)
+    got = {tuple(v) for v in parts.coords.tolist()}
+    assert got == {tuple(v) for r in rings for v in r}
+
+
+def test_orientation_is_normalised_and_order_is_deterministic():
+    rings = [
+        rect(0, 0, 10, 10, cw=True),
+        rect(50, 0, 60, 10),
+        rect(20, 5, 30, 15, cw=True),
+        rect(100, 0, 200, 100),
+        rect(110, 10, 120, 20, cw=True),
+    ]
+    a = make_parts(stack(rings))
+    check_invariants(a)
+    assert [p[0][0].tolist() for p in (a.part(0, j) for j in range(a.n_parts))] == [
+        [0, 0],
+        [20, 5],
+        [50, 0],
+        [100, 0],
+    ]
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        perm = rng.permutation(len(rings))
+        shuffled = [np.roll(rings[i], int(rng.integers(4)), axis=0) for i in perm]
+        b = make_parts(stack(shuffled))
+        for name in ("coords", "ring_offsets", "part_offsets", "layer_offsets"):
+            assert np.array_equal(getattr(a, name), getattr(b, name)), name
+
+
+def test_layers_empty_layers_and_degenerate_rings():
+    collinear = [[0, 0], [5, 0], [10, 0]]
+    loops = stack(
+        [], [rect(0, 0, 10, 10)], [collinear], [rect(0, 0, 4, 4), rect(9, 9, 12, 12)]
+    )
+    parts = make_parts(loops)
+    check_invariants(parts)
+    assert parts.n_layers == 4
+    assert parts.layer_offsets.tolist() == [0, 0, 1, 1, 3]
+    assert layer_area2(parts).tolist() == [0, 200, 0, 32 + 18]
+    assert make_parts(LayerPaths.empty(0)).n_layers == 0
+    assert make_parts(LayerPaths.empty(3)).layer_offsets.tolist() == [0, 0, 0, 0]
+
+
+def test_trimesh_cross_sections():
+    # annulus and a disc sectioned by trimesh (loops of unknown orientation), in µm
+    meshes = [
+        trimesh.creation.annulus(r_min=4.0, r_max=9.0, height=2.0, sections=64),
+        trimesh.creation.cylinder(radius=3.0, height=2.0, sections=48),
+    ]
+    meshes[1].apply_translation([30.0, 0.0, 0.0])
+    rings = []
+    for m in meshes:
+        for loop in m.section(plane_origin=[0, 0, 0], plane_normal=[0, 0, 1]).discrete:
+            rings.append(np.rint(loop[:-1, :2] * 1000).astype(np.int64))
+    want = 0.0
+    for r in rings:
+        want = shapely.symmetric_difference(
+            want or shapely.Polygon(), shapely.Polygon(r)
+        )
+    parts = make_parts(stack(rings), union_overlapping_volumes=False)
+    check_invariants(parts)
+    assert np.diff(parts.part_offsets).tolist() == [2, 1]  # ring + hole, then disc
+    assert layer_area2(parts)[0] == 2 * want.area
+    assert {tuple(v) for v in parts.coords.tolist()} == {
+        tuple(v) for r in rings for v in r.tolist()
+    }
+
+
+@st.composite
+def rectangle_layers(draw):
+    n = draw(st.integers(0, 12))
+    coord = st.integers(-1000, 1000)
+    rings, cw = [], draw(st.booleans())
+    for _ in range(n):
+        x0, x1 = sorted(draw(st.lists(coord, min_size=2, max_size=2, unique=True)))
+        y0, y1 = sorted(draw(st.lists(coord, min_size=2, max_size=2, unique=True)))
+        rings.append(rect(x0, y0, x1, y1, cw=cw))
+    return rings
+
+
+@given(rectangle_layers())
+def test_area_equals_independent_union(rings):
+    parts = make_parts(stack(rings, rings[::2]))
+    check_invariants(parts)
+    for k, lay in enumerate((rings, rings[::2])):
+        want = shapely.unary_union([shapely.box(*r[0], *r[2]) for r in lay]).area
+        assert layer_area2(parts)[k] == 2 * want
+        got = to_shapely(parts, k, scale=1.0)
+        assert got.is_valid and got.area == want
+        assert len(got.geoms) == np.diff(parts.layer_offsets)[k]
+
+
+def test_to_shapely_in_mm():
+    parts = make_parts(
+        stack(
+            [],
+            [
+                rect(0, 0, 2000, 1000),
+                rect(500, 250, 1500, 750, cw=True),
+                rect(3000, 0, 4000, 1000),
+            ],
+        )
+    )
+    empty = to_shapely(parts, 0)
+    assert isinstance(empty, shapely.MultiPolygon) and empty.is_empty
+    mp = to_shapely(parts, -1)
+    assert mp.area == pytest.approx(2.0 - 0.5 + 1.0)
+    assert [len(p.interiors) for p in mp.geoms] == [1, 0]
+    assert mp.bounds == (0.0, 0.0, 4.0, 1.0)
+    with pytest.raises(IndexError, match="layer index"):
+        to_shapely(parts, 2)
+
+
+def stack3():
+    return stack([rect(0, 0, 10, 10)], [rect(5, 0, 15, 10)], [rect(0, 0, 4, 4)])
+
+
+def test_inclusive_unions_each_layer_with_the_raw_next():
+    out = apply_slicing_tolerance(stack3(), "inclusive")
+    assert out.layer_area2().tolist() == [2 * 150, 2 * (100 + 16), 32]
+    assert (out.area2() > 0).all()
+
+
+def test_exclusive_intersects_with_the_next_and_clears_the_top():
+    out = apply_slicing_tolerance(stack3(), "exclusive")
+    assert out.layer_area2().tolist() == [2 * 50, 2 * 0, 0]
+    assert out.rings_per_layer().tolist() == [1, 0, 0]
+    assert out.layer(0)[0].tolist() == [[10, 10], [5, 10], [5, 0], [10, 0]] or sorted(
+        out.layer(0)[0].tolist()
+    ) == [[5, 0], [5, 10], [10, 0], [10, 10]]
+
+
+def test_exclusive_uses_evenodd_and_inclusive_keeps_holes():
+    hollow = [
+        rect(0, 0, 30, 30),
+        rect(10, 10, 20, 20),
+    ]  # both CCW: EvenOdd makes a hole
+    out = apply_slicing_tolerance(stack(hollow, hollow), "exclusive")
+    assert out.layer_area2().tolist() == [2 * 800, 0]
+    inc = apply_slicing_tolerance(
+        stack(
+            [rect(0, 0, 30, 30), rect(10, 10, 20, 20, cw=True)],
+            [rect(0, 0, 30, 30), rect(12, 12, 18, 18, cw=True)],
+        ),
+        "inclusive",
+    )
+    assert inc.layer_area2().tolist() == [2 * (900 - 36), 2 * (900 - 36)]
+
+
+def test_middle_returns_input_and_open_is_passed_through():
+    raw = stack3()
+    opened = LayerPaths([[0, 0], [5, 5]], [0, 2], [0, 1, 1, 1])
+    loops = LayerPaths(raw.coords, raw.ring_offsets, raw.layer_offsets, open=opened)
+    assert apply_slicing_tolerance(loops, "middle") is loops
+    assert apply_slicing_tolerance(loops, "inclusive").open is opened
+    assert apply_slicing_tolerance(LayerPaths.empty(0), "exclusive").n_layers == 0
+
+
+@pytest.mark.parametrize(
+    ("call", "exc", "fragment"),
+    [
+        (
+            lambda: make_parts([[0, 0]]),
+            InputTypeError,
+            "`loops` must be a vecslice.LayerPaths",
+        ),
+        (
+            lambda: apply_slicing_tolerance(stack3(), "outer"),
+            SettingsError,
+            "`mode` must be one of 'middle', 'inclusive', 'exclusive'; got 'outer'",
+        ),
+        (
+            lambda: apply_slicing_tolerance(None, "middle"),
+            InputTypeError,
+            "got NoneType",
+        ),
+        (
+            lambda: LayerParts([[0, 0]], [0, 1], [0, 2], [0, 1]),
+            ValueError,
+            "`part_offsets` must end at 1",
+        ),
+    ],
+)
+def test_errors(call, exc, fragment):
+    with pytest.raises(exc, match=fragment.replace("(", r"\(")):
+        call()
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(1, 8))
+def test_random_convex_polygons_union_area(seed, n):
+    rng = np.random.default_rng(seed)
+    polys = []
+    for _ in range(n):
+        pts = rng.integers(-5000, 5000, (8, 2)) + rng.integers(-20000, 20000, 2)
+        hull = shapely.convex_hull(shapely.MultiPoint(pts))
+        if hull.geom_type == "Polygon" and hull.area > 0:
+            polys.append(shapely.geometry.polygon.orient(hull, 1.0))
+    rings = [np.asarray(p.exterior.coords, dtype=np.int64)[:-1] for p in polys]
+    parts = make_parts(stack(rings))
+    check_invariants(parts)
+    union = shapely.unary_union(polys) if polys else shapely.Polygon()
+    got = to_shapely(parts, 0, scale=1.0)
+    assert got.is_valid
+    assert (
+        abs(got.area - union.area) <= union.length + 1
+    )  # intersections rounded to 1 µm
+    assert shapely.symmetric_difference(got, union).area <= union.length + 1
