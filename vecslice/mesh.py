@@ -27,6 +27,7 @@ from vecslice.meshcheck import (
     MeshReport,
     _edges,
     build_report,
+    clean_arrays,
     dedupe_faces,
     face_volumes,
     orient_faces,
@@ -91,43 +92,6 @@ def _as_faces(value: ArrayLike, n_vertices: int) -> NDArray[np.int64]:
             f"at face {i // 3}"
         )
     return f
-
-
-def _clean(
-    v: NDArray[np.int64], f: NDArray[np.int64], *, merge: bool = True
-) -> tuple[NDArray[np.int64], NDArray[np.int64], int, int, int]:
-    """Merge equal positions, drop repeated-index faces and unused vertices.
-
-    Kept vertices stay in order of first occurrence, so a clean mesh is unchanged.
-    Returns ``(vertices, faces, n_merged, n_unused, n_degenerate)``.
-    """
-    n_v = v.shape[0]
-    if merge:
-        # |c| < 2**30, so x and y pack into one int64 sort key; stable sort: the
-        # first original index of each position leads its run
-        xy = (v[:, 0] + 2**30) * np.int64(2**31) + (v[:, 1] + 2**30)
-        order = np.lexsort((v[:, 2], xy))
-        sv = v[order]
-        new = np.ones(n_v, dtype=bool)
-        new[1:] = (sv[1:] != sv[:-1]).any(axis=1)
-    else:
-        order = np.arange(n_v)
-        new = np.ones(n_v, dtype=bool)
-    rep = order[new]  # first original index of each position
-    gid = np.empty(n_v, dtype=np.int64)
-    gid[order] = np.cumsum(new) - 1
-    g = gid[f]
-    deg = (g[:, 0] == g[:, 1]) | (g[:, 1] == g[:, 2]) | (g[:, 2] == g[:, 0])
-    g = g[~deg]
-    used = np.zeros(rep.shape[0], dtype=bool)
-    used[g.reshape(-1)] = True
-    kept = np.flatnonzero(used)
-    kept = kept[np.argsort(rep[kept], kind="stable")]
-    new_id = np.full(rep.shape[0], -1, dtype=np.int64)
-    new_id[kept] = np.arange(kept.shape[0])
-    n_merged = n_v - rep.shape[0]
-    return (v[rep[kept]], new_id[g], n_merged, rep.shape[0] - kept.shape[0],
-            int(deg.sum()))
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -251,7 +215,7 @@ class Mesh:
             "arrays", int(f.shape[0]), int(v.shape[0]))
         if not merge:
             return cls(v, f, load_info=base)
-        v2, f2, n_merged, n_unused, n_deg = _clean(v, f)
+        v2, f2, n_merged, n_unused, n_deg = clean_arrays(v, f)
         if f2.shape[0] == 0:
             raise InputValueError(
                 f"`faces` must hold at least one non-degenerate triangle; all "
@@ -377,7 +341,7 @@ class Mesh:
             )
         flip = orient_faces(self.vertices, f)
         f = np.where(flip[:, None], f[:, [0, 2, 1]], f)
-        v, f, _, n_unused, _ = _clean(self.vertices, f, merge=False)
+        v, f, _, n_unused, _ = clean_arrays(self.vertices, f, merge=False)
         info = self.load_info if self.load_info is not None else LoadInfo(
             "arrays", self.n_faces, self.n_vertices)
         info = replace(

@@ -1,6 +1,8 @@
+import io
 import json
 import math
 import random
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -326,6 +328,7 @@ def test_report_text():
     text = str(r)
     assert "inconsistent edges  3" in text and "watertight          no" in text
     assert "source              arrays" in text
+    assert not r.is_clean and tet().report().is_clean
     assert r.volume_mm3 == pytest.approx(r.volume * 1e-9)
     assert repr(tet()) == "Mesh(4 vertices, 4 faces, 0.006 x 0.006 x 0.006 mm)"
 
@@ -407,6 +410,21 @@ def _write(tmp_path: Path, name: str, data: bytes | str) -> Path:
     return p
 
 
+def _rezip(meshes_dir, how):
+    """pyramids.3mf with its model XML damaged ('cut') or left out ('drop')."""
+    src = zipfile.ZipFile(meshes_dir / "pyramids.3mf")
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w") as dst:
+        for n in src.namelist():
+            data = src.read(n)
+            if n.endswith(".model"):
+                if how == "drop":
+                    continue
+                data = data[: len(data) // 2]
+            dst.writestr(n, data)
+    return out.getvalue()
+
+
 def _shared(meshes_dir, name, n=None):
     data = (meshes_dir / name).read_bytes()
     return data if n is None else data[:n]
@@ -437,6 +455,10 @@ FILE_CASES = [
      vs.MeshFileError, OSError, r"cannot read '.*garbage\.3mf' as 3MF: BadZipFile"),
     ("truncated 3mf", "trunc.3mf", lambda d: _shared(d, "pyramids.3mf", 3000),
      vs.MeshFileError, OSError, r"cannot read .* as 3MF"),
+    ("3mf cut xml", "cut.3mf", lambda d: _rezip(d, "cut"), vs.MeshFileError,
+     OSError, r"as 3MF: XMLSyntaxError"),
+    ("3mf no model", "nomodel.3mf", lambda d: _rezip(d, "drop"), vs.MeshFileError,
+     OSError, r"as 3MF: StopIteration"),
     ("garbage ply", "garbage.ply", lambda d: b"\x13\x37" * 100, vs.MeshFileError,
      OSError, r"cannot read .* as PLY: ValueError"),
     ("truncated ply", "trunc.ply", lambda d: _shared(d, "bun_zipper_res2.ply", 3000),
