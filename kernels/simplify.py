@@ -19,7 +19,7 @@ given, satisfy |w| < 2**30.
 """
 
 import numpy as np
-from numba import njit, types
+from numba import njit, prange, types
 
 from ._types import B1, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 from .geometry import (
@@ -34,10 +34,11 @@ INT64_MAX = np.iinfo(np.int64).max
 MIN_RES2 = 25  # CuraEngine's min_resolution (5 µm), squared
 
 _OPTS = {"cache": True, "nogil": True}
+_INL = {"cache": True, "nogil": True, "inline": "always"}  # hot helpers
 _W1 = types.int64[::1]  # writable work arrays
 
 
-@njit(I64(_W1, _W1, _W1, I64, I64, I64), **_OPTS)
+@njit(I64(_W1, _W1, _W1, I64, I64, I64), **_INL)
 def _area_deviation(px, py, pw, b, v, a):
     """Extrusion-area deviation of removing vertex ``v`` between ``b`` and ``a``."""
     ab = vsize(px[v] - px[b], py[v] - py[b])
@@ -56,7 +57,7 @@ def _area_deviation(px, py, pw, b, v, a):
     return wd * ab
 
 
-@njit(I64(_W1, _W1, _W1, B1, _W1, _W1, I64, I64, B1, I64, I64), **_OPTS)
+@njit(I64(_W1, _W1, _W1, B1, _W1, _W1, I64, I64, B1, I64, I64), **_INL)
 def _importance(px, py, pw, has_w, prv, nxt, i, n, closed, max_res2, max_area):
     """CuraEngine's importance of kept vertex ``i`` (lower is removed first)."""
     if not closed and (i == 0 or i == n - 1):
@@ -75,7 +76,7 @@ def _importance(px, py, pw, has_w, prv, nxt, i, n, closed, max_res2, max_area):
     return d2
 
 
-@njit(types.void(_W1, _W1, _W1, I64), **_OPTS)
+@njit(types.void(_W1, _W1, _W1, I64), **_INL)
 def _unlink(prv, nxt, dele, i):
     p = prv[i]
     q = nxt[i]
@@ -84,7 +85,7 @@ def _unlink(prv, nxt, dele, i):
     dele[i] = 1
 
 
-@njit(B1(_W1, _W1, _W1, B1, _W1, _W1, _W1, I64, I64, I64, B1, I64, I64), **_OPTS)
+@njit(B1(_W1, _W1, _W1, B1, _W1, _W1, _W1, I64, I64, I64, B1, I64, I64), **_INL)
 def _remove(px, py, pw, has_w, prv, nxt, dele, i, d2, n, closed, max_res2, max_dev2):
     """Try to remove vertex ``i`` (CuraEngine ``Simplify::remove``); True if removed."""
     if d2 <= MIN_RES2:
@@ -130,7 +131,7 @@ def _remove(px, py, pw, has_w, prv, nxt, dele, i, d2, n, closed, max_res2, max_d
     return True
 
 
-@njit(types.void(_W1, _W1, I64, I64), **_OPTS)
+@njit(types.void(_W1, _W1, I64, I64), **_INL)
 def _sift_down(hk, hi, pos, size):
     """Restore the heap below ``pos``; entries ordered by (key, index)."""
     k = hk[pos]
@@ -152,7 +153,7 @@ def _sift_down(hk, hi, pos, size):
     hi[pos] = v
 
 
-@njit(types.void(_W1, _W1, I64, I64, I64), **_OPTS)
+@njit(types.void(_W1, _W1, I64, I64, I64), **_INL)
 def _push(hk, hi, size, key, idx):
     """Insert (key, idx) into a heap holding ``size`` entries."""
     pos = size
@@ -253,49 +254,79 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
     types.Tuple((I64_2D_OUT, I64_1D_OUT, I64_1D_OUT))(
         I64_2D, I64_1D, I64_1D, B1, B1, I64, I64, I64
     ),
-    **_OPTS,
+    cache=True, nogil=True, parallel=True,
 )
 def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
                    max_deviation, max_area_deviation):
+    """Simplify all rings: chunks of rings in parallel, then compact serially.
+
+    Ring ``r`` writes its result at its own input offset (a result is never
+    longer than its input), so chunks never overlap; counts are then scanned and
+    the rings moved forward in order.
+    """
     n_rings = ring_offsets.shape[0] - 1
     n_all = coords.shape[0]
-    max_len = 0
-    for r in range(n_rings):
-        max_len = max(max_len, ring_offsets[r + 1] - ring_offsets[r])
-    px = np.empty(max_len, np.int64)
-    py = np.empty(max_len, np.int64)
-    pw = np.zeros(max_len, np.int64)
-    prv = np.empty(max_len, np.int64)
-    nxt = np.empty(max_len, np.int64)
-    dele = np.empty(max_len, np.int64)
-    hk = np.empty(max_len, np.int64)
-    hi = np.empty(max_len, np.int64)
-    out = np.empty((n_all, 2), np.int64)
-    out_w = np.empty(n_all if has_w else 0, np.int64)
-    new_offsets = np.empty(n_rings + 1, np.int64)
-    new_offsets[0] = 0
     max_res2 = max_resolution * max_resolution
     max_dev2 = max_deviation * max_deviation
-    j = 0
-    for r in range(n_rings):
-        start = ring_offsets[r]
-        n = ring_offsets[r + 1] - start
-        for k in range(n):
-            px[k] = coords[start + k, 0]
-            py[k] = coords[start + k, 1]
+    # chunks of consecutive rings with about equal vertex counts
+    n_chunks = min(n_rings, 64)
+    bounds = np.zeros(n_chunks + 1, np.int64)
+    r = 0
+    for c in range(1, n_chunks):
+        target = (n_all * c) // n_chunks
+        while r < n_rings and ring_offsets[r] < target:
+            r += 1
+        bounds[c] = r
+    bounds[n_chunks] = n_rings
+    buf = np.empty((n_all, 2), np.int64)
+    buf_w = np.empty(n_all if has_w else 0, np.int64)
+    counts = np.zeros(n_rings, np.int64)
+    for c in prange(n_chunks):
+        r0 = bounds[c]
+        r1 = bounds[c + 1]
+        max_len = 0
+        for rr in range(r0, r1):
+            max_len = max(max_len, ring_offsets[rr + 1] - ring_offsets[rr])
+        px = np.empty(max_len, np.int64)
+        py = np.empty(max_len, np.int64)
+        pw = np.zeros(max_len, np.int64)
+        prv = np.empty(max_len, np.int64)
+        nxt = np.empty(max_len, np.int64)
+        dele = np.empty(max_len, np.int64)
+        hk = np.empty(max_len, np.int64)
+        hi = np.empty(max_len, np.int64)
+        for rr in range(r0, r1):
+            start = ring_offsets[rr]
+            n = ring_offsets[rr + 1] - start
+            for k in range(n):
+                px[k] = coords[start + k, 0]
+                py[k] = coords[start + k, 1]
+                if has_w:
+                    pw[k] = widths[start + k]
+            m = _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2,
+                              max_area_deviation, prv, nxt, dele, hk, hi)
+            for k in range(m):
+                buf[start + k, 0] = px[k]
+                buf[start + k, 1] = py[k]
+                if has_w:
+                    buf_w[start + k] = pw[k]
+            counts[rr] = m
+    new_offsets = np.empty(n_rings + 1, np.int64)
+    new_offsets[0] = 0
+    for rr in range(n_rings):
+        new_offsets[rr + 1] = new_offsets[rr] + counts[rr]
+    j = new_offsets[n_rings]
+    out = np.empty((j, 2), np.int64)
+    out_w = np.empty(j if has_w else 0, np.int64)
+    for rr in range(n_rings):
+        src = ring_offsets[rr]
+        dst = new_offsets[rr]
+        for k in range(counts[rr]):
+            out[dst + k, 0] = buf[src + k, 0]
+            out[dst + k, 1] = buf[src + k, 1]
             if has_w:
-                pw[k] = widths[start + k]
-        m = _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2,
-                          max_area_deviation, prv, nxt, dele, hk, hi)
-        # j <= start: results are written no further than their input ring
-        for k in range(m):
-            out[j + k, 0] = px[k]
-            out[j + k, 1] = py[k]
-            if has_w:
-                out_w[j + k] = pw[k]
-        j += m
-        new_offsets[r + 1] = j
-    return out[:j].copy(), (out_w[:j].copy() if has_w else out_w), new_offsets
+                out_w[dst + k] = buf_w[src + k]
+    return out, out_w, new_offsets
 
 
 @njit(
