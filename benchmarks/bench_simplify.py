@@ -1,0 +1,62 @@
+"""Throughput of vs.simplify beside clipper2, shapely and manifold3d (same input)."""
+
+import clipper2
+import manifold3d
+import numba
+import numpy as np
+import pytest
+import shapely
+from _simplify_data import MAX_DEVIATION, as_ring_list, noisy_circles
+
+import vecslice as vs
+
+
+@pytest.fixture(scope="module")
+def circles():
+    coords, offsets = noisy_circles()
+    paths = vs.Paths(coords, offsets)
+    vs.simplify(paths)  # load / compile the JIT outside the timing
+    return paths
+
+
+def _info(benchmark, paths):
+    benchmark.extra_info["vertices"] = int(paths.coords.shape[0])
+    benchmark.extra_info["rings"] = len(paths)
+    benchmark.extra_info["threads"] = numba.get_num_threads()
+
+
+@pytest.mark.benchmark(group="simplify.noisy_circles")
+def test_vecslice_simplify(benchmark, circles):
+    _info(benchmark, circles)
+    out = benchmark(vs.simplify, circles)
+    assert len(out) == len(circles)
+    assert 0 < out.coords.shape[0] < circles.coords.shape[0] // 2
+
+
+@pytest.mark.benchmark(group="simplify.noisy_circles")
+def test_clipper2_simplify_paths(benchmark, circles):
+    _info(benchmark, circles)
+    rings = as_ring_list(circles.coords, circles.ring_offsets)
+    out = benchmark(clipper2.simplify_paths, rings, float(MAX_DEVIATION), True)
+    assert len(out) == len(rings)
+    assert sum(len(r) for r in out) < circles.coords.shape[0] // 2
+
+
+@pytest.mark.benchmark(group="simplify.noisy_circles")
+def test_shapely_simplify(benchmark, circles):
+    _info(benchmark, circles)
+    rings = as_ring_list(circles.coords, circles.ring_offsets)
+    polys = shapely.polygons([r.astype(np.float64) for r in rings])
+    out = benchmark(shapely.simplify, polys, float(MAX_DEVIATION))
+    assert len(out) == len(rings)
+    assert shapely.get_num_coordinates(out).sum() < circles.coords.shape[0] // 2
+
+
+@pytest.mark.benchmark(group="simplify.noisy_circles")
+def test_manifold3d_cross_section_simplify(benchmark, circles):
+    _info(benchmark, circles)
+    rings = as_ring_list(circles.coords, circles.ring_offsets)
+    cs = manifold3d.CrossSection([r.astype(np.float64) for r in rings])
+    out = benchmark(cs.simplify, float(MAX_DEVIATION))
+    assert out.num_contour() == len(rings)
+    assert out.num_vert() < circles.coords.shape[0] // 2

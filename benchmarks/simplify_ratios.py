@@ -1,0 +1,65 @@
+"""Print vertices/s of vs.simplify, clipper2, shapely and manifold3d on noisy circles.
+
+Run: ``python benchmarks/simplify_ratios.py`` (best of ``--repeat`` runs each).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+sys.path[:0] = [str(Path(__file__).parent), str(Path(__file__).parents[1])]
+
+import clipper2  # noqa: E402
+import manifold3d  # noqa: E402
+import numba  # noqa: E402
+import numpy as np  # noqa: E402
+import shapely  # noqa: E402
+from _simplify_data import MAX_DEVIATION, as_ring_list, noisy_circles  # noqa: E402
+
+import vecslice as vs  # noqa: E402
+
+
+def best_of(fn, repeat):
+    best = float("inf")
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--rings", type=int, default=1000)
+    ap.add_argument("--verts", type=int, default=1000)
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args()
+    coords, offsets = noisy_circles(args.rings, args.verts)
+    paths = vs.Paths(coords, offsets)
+    rings = as_ring_list(coords, offsets)
+    polys = shapely.polygons([r.astype(np.float64) for r in rings])
+    cs = manifold3d.CrossSection([r.astype(np.float64) for r in rings])
+    eps = float(MAX_DEVIATION)
+    vs.simplify(paths)  # warm the JIT
+    runs = {
+        "vecslice": lambda: vs.simplify(paths),
+        "clipper2": lambda: clipper2.simplify_paths(rings, eps, True),
+        "shapely": lambda: shapely.simplify(polys, eps),
+        "manifold3d": lambda: cs.simplify(eps),
+    }
+    n = coords.shape[0]
+    print(f"{args.rings} noisy circles x {args.verts} vertices = {n} vertices; "
+          f"numba threads {numba.get_num_threads()}")
+    rate = {}
+    for name, fn in runs.items():
+        t = best_of(fn, args.repeat)
+        rate[name] = n / t
+        print(f"{name:>11}: {t * 1e3:9.1f} ms  {rate[name] / 1e6:8.2f} M vertices/s")
+    print(f"ratio vecslice/clipper2 = {rate['vecslice'] / rate['clipper2']:.3f}")
+
+
+if __name__ == "__main__":
+    main()
