@@ -131,8 +131,14 @@ def _check_loops(loops: Any) -> LayerPaths:
 def _cross_sections(
     loops: LayerPaths, fillrule: manifold3d.FillRule
 ) -> list[manifold3d.CrossSection]:
-    """One CrossSection per layer: all its rings with ``fillrule`` (batched split)."""
-    rings = np.split(loops.coords.astype(np.float64), loops.ring_offsets[1:-1])
+    """One CrossSection per layer: all its rings with ``fillrule``.
+
+    One float64 conversion for all vertices; rings are views sliced from it
+    (plain slicing: ``np.split`` costs several µs of overhead per ring).
+    """
+    f = loops.coords.astype(np.float64)
+    ro = loops.ring_offsets.tolist()
+    rings = [f[a:b] for a, b in itertools.pairwise(ro)]
     lo = loops.layer_offsets.tolist()
     cs = manifold3d.CrossSection
     return [cs(rings[lo[k] : lo[k + 1]], fillrule) for k in range(len(lo) - 1)]

@@ -1,0 +1,278 @@
+"""Tests for vecslice.storage: SlicedModel layout, views, areas, save/load."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+import shapely
+import trimesh
+
+from vecslice import LayerPaths, LayoutError, StorageFileError
+from vecslice.parts import make_parts
+from vecslice.storage import FORMAT, SlicedModel, load_sliced
+
+FIELDS = (
+    "slice_z", "print_z", "thickness", "layer_offsets", "part_offsets",
+    "ring_offsets", "coords", "open_coords", "open_ring_offsets",
+    "open_layer_offsets", "open_chains", "stitched_gaps",
+)  # fmt: skip
+
+
+def rect(x0, y0, x1, y1, *, cw=False):
+    r = [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
+    return r[::-1] if cw else r
+
+
+def loops_of(*layers):
+    rings = [np.asarray(r, np.int64) for lay in layers for r in lay]
+    lens = [0] + [len(r) for r in rings]
+    coords = np.concatenate(rings) if rings else np.empty((0, 2), np.int64)
+    return LayerPaths(
+        coords, np.cumsum(lens), np.cumsum([0] + [len(x) for x in layers])
+    )
+
+
+@pytest.fixture
+def model():
+    """3 layers: plate with a hole + island, empty layer, two squares; open chain."""
+    parts = make_parts(
+        loops_of(
+            [rect(0, 0, 3000, 3000), rect(1000, 1000, 2000, 2000, cw=True),
+             rect(1200, 1200, 1800, 1800)],
+            [],
+            [rect(0, 0, 1000, 1000), rect(2000, 0, 3000, 500)],
+        )
+    )  # fmt: skip
+    opened = LayerPaths([[0, 0], [5, 5], [9, 0]], [0, 3], [0, 0, 1, 1])
+    return SlicedModel.from_parts(
+        parts, slice_z=[150, 350, 450], print_z=[300, 400, 500],
+        thickness=[300, 100, 100], open=opened, stitched_gaps=[0, 2, 0],
+    )  # fmt: skip
+
+
+def test_layout_views_and_areas(model):
+    assert (model.n_layers, model.n_parts, model.n_rings) == (3, 4, 5)
+    assert model.layer_offsets.tolist() == [0, 2, 2, 4]
+    assert model.part_offsets.tolist() == [0, 2, 3, 4, 5]
+    assert model.layer_areas().tolist() == [9e6 - 1e6 + 0.36e6, 0.0, 1e6 + 0.5e6]
+    assert model.layer_areas().dtype == np.float64
+    (outline, holes), (island, no_holes) = model.layer(0)
+    assert outline.tolist() == rect(0, 0, 3000, 3000)
+    hole = [[1000, 1000], [1000, 2000], [2000, 2000], [2000, 1000]]
+    assert [h.tolist() for h in holes] == [hole]
+    assert island.min(axis=0).tolist() == [1200, 1200] and no_holes == []
+    assert model.layer(1) == []
+    assert model.part(2, 1)[0].min(axis=0).tolist() == [2000, 0]
+    assert model.part(-1, -1)[0].tolist() == model.part(2, 1)[0].tolist()
+    assert model.open_chains.tolist() == [0, 1, 0]
+    assert model.stitched_gaps.tolist() == [0, 2, 0]
+    assert model.open.layer(1)[0].tolist() == [[0, 0], [5, 5], [9, 0]]
+    assert model.bounds().tolist() == [[0, 0], [3000, 3000]]
+    assert "3 layers, 4 parts, 5 rings" in repr(model)
+
+
+def test_arrays_are_frozen_int64_and_copied(model):
+    for name in FIELDS:
+        a = getattr(model, name)
+        assert a.dtype == np.int64 and not a.flags.writeable, name
+    slice_z = np.array([1], np.int64)
+    m = SlicedModel(slice_z, [2], [2], [0, 0], [0], [0], np.empty((0, 2), int))
+    slice_z[0] = 99
+    assert m.slice_z.tolist() == [1]
+    with pytest.raises(AttributeError):
+        m.coords = None
+    assert m.bounds() is None and m.layer_areas().tolist() == [0.0]
+
+
+def test_to_shapely_in_mm(model):
+    mp = model.to_shapely(0)
+    assert isinstance(mp, shapely.MultiPolygon)
+    assert mp.area == pytest.approx(9 - 1 + 0.36)
+    assert mp.is_valid and len(mp.geoms) == 2
+    assert model.to_shapely(1).is_empty
+
+
+def test_round_trip_is_bit_exact(model, tmp_path):
+    for compress in (False, True):
+        path = tmp_path / f"m{compress}.npz"
+        model.save(path, compress=compress)
+        back = load_sliced(str(path))
+        for name in FIELDS:
+            a, b = getattr(model, name), getattr(back, name)
+            assert a.dtype == b.dtype and a.shape == b.shape, name
+            assert np.array_equal(a, b), name
+        assert os.listdir(tmp_path).count(path.name) == 1
+    assert sorted(os.listdir(tmp_path)) == ["mFalse.npz", "mTrue.npz"]  # no temp files
+
+
+def test_save_keeps_the_name_and_overwrites(model, tmp_path):
+    path = tmp_path / "model.vsl"
+    path.write_bytes(b"old")
+    model.save(path)
+    assert sorted(os.listdir(tmp_path)) == ["model.vsl"]
+    assert load_sliced(path).n_parts == 4
+
+
+def test_realistic_model_bytes_per_vertex(tmp_path):
+    """Sections of a torus knot and a capsule: ~17 B per vertex, offsets included."""
+    mesh = trimesh.creation.torus(
+        major_radius=20, minor_radius=6, major_sections=96, minor_sections=48
+    )
+    mesh = trimesh.util.concatenate(
+        [
+            mesh,
+            trimesh.creation.capsule(height=30, radius=5).apply_translation([60, 0, 0]),
+        ]
+    )
+    zs = np.arange(-5.95, 6.0, 0.1)
+    rings, per_layer = [], []
+    for z in zs:
+        sec = mesh.section(plane_origin=[0, 0, z], plane_normal=[0, 0, 1])
+        loops = (
+            []
+            if sec is None
+            else [np.rint(d[:-1, :2] * 1000).astype(np.int64) for d in sec.discrete]
+        )
+        rings += loops
+        per_layer.append(len(loops))
+    lens = [0] + [len(r) for r in rings]
+    loops = LayerPaths(
+        np.concatenate(rings), np.cumsum(lens), np.cumsum([0, *per_layer])
+    )
+    parts = make_parts(loops, union_overlapping_volumes=False)
+    z = np.rint(zs * 1000).astype(np.int64)
+    model = SlicedModel.from_parts(
+        parts, slice_z=z, print_z=z + 50, thickness=np.full(len(z), 100)
+    )
+    per_vertex = model.nbytes / model.coords.shape[0]
+    print(f"{per_vertex:.3f} bytes per vertex")
+    assert 16 < per_vertex <= 17, per_vertex
+    model.save(tmp_path / "m.npz")
+    assert os.path.getsize(tmp_path / "m.npz") <= 17.5 * model.coords.shape[0]
+
+
+def _npz(path, **arrays):
+    with open(path, "wb") as fh:
+        np.savez(fh, **arrays)
+    return path
+
+
+def _good(model):
+    return {"format": np.array(FORMAT), "version": np.array(1)} | {
+        k: getattr(model, k) for k in FIELDS
+    }
+
+
+@pytest.mark.parametrize(
+    ("make", "fragment"),
+    [
+        (lambda d, m: d / "missing.npz", "missing.npz' does not exist"),
+        (lambda d, m: d, "is a directory"),
+        (lambda d, m: (d / "g.npz").write_bytes(b"garbage" * 50) and d / "g.npz",
+         "is not an .npz file written by SlicedModel.save"),
+        (lambda d, m: ((d / "e.npz").write_bytes(b"") and d / "e.npz")
+         or d / "e.npz", "is not an .npz file"),
+        (lambda d, m: np.save(d / "a.npy", np.arange(3)) or d / "a.npy",
+         "is a single .npy array"),
+        (lambda d, m: _npz(d / "o.npz", x=np.arange(3)),
+         "is not a saved vecslice model \\(format marker None"),
+        (lambda d, m: _npz(d / "f.npz", **(_good(m) | {"format": np.array("other")})),
+         "format marker 'other'"),
+        (lambda d, m: _npz(d / "v.npz", **(_good(m) | {"version": np.array(7)})),
+         "format version 7; this vecslice reads versions 1 to 1"),
+        (lambda d, m: _npz(d / "k.npz", **{k: v for k, v in _good(m).items()
+                                           if k != "part_offsets"}),
+         "misses the array 'part_offsets'"),
+        (lambda d, m: _npz(d / "t.npz", **(_good(m) | {
+            "coords": m.coords.astype(np.float64)})),
+         "array 'coords' must have dtype int64; got float64"),
+        (lambda d, m: _npz(d / "l.npz", **(_good(m) | {
+            "part_offsets": np.array([0, 2, 3, 4, 6], np.int64)})),
+         "invalid vecslice model: `part_offsets` must end at 5"),
+        (lambda d, m: _npz(d / "p.npz", **(_good(m) | {
+            "slice_z": np.array([1, 2], np.int64)})),
+         "invalid vecslice model: `print_z` must have length 2"),
+    ],
+)  # fmt: skip
+def test_bad_files(model, tmp_path, make, fragment):
+    path = make(tmp_path, model)
+    with pytest.raises(StorageFileError, match=fragment) as info:
+        load_sliced(path)
+    assert isinstance(info.value, OSError)
+    assert str(path) in str(info.value)
+
+
+def test_truncated_archive(model, tmp_path):
+    path = tmp_path / "m.npz"
+    model.save(path)
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(StorageFileError, match=r"m\.npz"):
+        load_sliced(path)
+
+
+def test_failed_save_leaves_no_file(model, tmp_path):
+    target = tmp_path / "nope" / "m.npz"
+    with pytest.raises(
+        StorageFileError, match=r"cannot save a vecslice model to .*nope"
+    ):
+        model.save(target)
+    assert not (tmp_path / "nope").exists()
+    (tmp_path / "dir.npz").mkdir()
+    with pytest.raises(StorageFileError, match=r"dir\.npz"):
+        model.save(tmp_path / "dir.npz")
+    assert (
+        os.listdir(tmp_path) == ["dir.npz"] and os.listdir(tmp_path / "dir.npz") == []
+    )
+
+
+def test_failed_write_removes_the_temp_file(model, tmp_path, monkeypatch):
+    def boom(fh, **arrays):
+        fh.write(b"partial")
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(np, "savez", boom)
+    with pytest.raises(StorageFileError, match="No space left on device"):
+        model.save(tmp_path / "m.npz")
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "fragment"),
+    [
+        ({"print_z": [1, 2]}, "`print_z` must have length 1 .* got 2"),
+        ({"layer_offsets": [0, 0, 1]},
+         "`layer_offsets` must have length 2 \\(layers \\+ 1, as `slice_z`\\); got 3"),
+        ({"part_offsets": [0, 0, 1], "layer_offsets": [0, 2]},
+         "part 0 is empty"),
+        ({"ring_offsets": [0, 5]}, "`ring_offsets` must end at 4"),
+        ({"open_chains": [0, 0]}, "`open_chains` must have length 1"),
+        ({"open_coords": [[0, 0]], "open_ring_offsets": [0, 1],
+          "open_layer_offsets": [0, 1, 1]}, "`open_layer_offsets` must have length 2"),
+    ],
+)  # fmt: skip
+def test_layout_errors(kwargs, fragment):
+    base = {
+        "slice_z": [1],
+        "print_z": [2],
+        "thickness": [2],
+        "layer_offsets": [0, 1],
+        "part_offsets": [0, 1],
+        "ring_offsets": [0, 4],
+        "coords": rect(0, 0, 1, 1),
+    }
+    base |= kwargs
+    positional = [base.pop(k) for k in FIELDS[:7]]
+    with pytest.raises(LayoutError, match=fragment):
+        SlicedModel(*positional, **base)
+
+
+def test_index_errors(model):
+    with pytest.raises(
+        ValueError, match="`i` must be a layer index in \\[-3, 3\\); got 3"
+    ):
+        model.layer(3)
+    with pytest.raises(ValueError, match="`j` must be a part index of layer 1"):
+        model.part(1, 0)
