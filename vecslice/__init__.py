@@ -16,10 +16,12 @@ from vecslice.errors import (
 )
 from vecslice.layers import layer_heights
 from vecslice.mesh import Mesh, MeshReport, check_mesh, load_mesh
+from vecslice.parts import make_parts
 from vecslice.paths import LayerPaths, Paths
 from vecslice.settings import SliceSettings
 from vecslice.simplify import simplify
 from vecslice.slicing import slice_contours
+from vecslice.storage import SlicedModel, load_sliced
 from vecslice.units import COORD_LIMIT, to_microns
 
 __version__ = "0.1.0"
@@ -36,6 +38,7 @@ __all__ = [
     "Paths",
     "SettingsError",
     "SliceSettings",
+    "SlicedModel",
     "StorageFileError",
     "VecsliceError",
     "VecsliceWarning",
@@ -43,6 +46,8 @@ __all__ = [
     "check_mesh",
     "layer_heights",
     "load_mesh",
+    "load_sliced",
+    "make_parts",
     "simplify",
     "slice_contours",
     "to_microns",
