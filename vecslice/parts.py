@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from kernels.rings import ring_area2
 from vecslice._validate import as_coords, as_offsets, check_option
-from vecslice.errors import InputTypeError
+from vecslice.errors import InputTypeError, InputValueError
 from vecslice.paths import LayerPaths
 
 __all__ = ["LayerParts", "apply_slicing_tolerance", "make_parts", "to_shapely"]
@@ -104,9 +104,16 @@ class LayerParts:
 
     def part(self, k: int, j: int) -> tuple[NDArray[np.int64], list[NDArray[np.int64]]]:
         """Part ``j`` of layer ``k`` as ``(outline, [holes])`` read-only views."""
+        n = self.n_layers
+        if not -n <= k < n:
+            raise InputValueError(f"`k` must be a layer index in [-{n}, {n}); got {k}")
+        k %= n
+        n_parts = int(self.layer_offsets[k + 1] - self.layer_offsets[k])
+        if not 0 <= j < n_parts:
+            raise InputValueError(
+                f"`j` must be a part index of layer {k} in [0, {n_parts}); got {j}"
+            )
         q = int(self.layer_offsets[k]) + j
-        if not 0 <= j < self.layer_offsets[k + 1] - self.layer_offsets[k]:
-            raise IndexError(f"`j` must be a part index of layer {k}; got {j}")
         ro = self.ring_offsets
         rings = [self.coords[ro[i] : ro[i + 1]]
                  for i in range(self.part_offsets[q], self.part_offsets[q + 1])]
@@ -548,7 +555,9 @@ def to_shapely(parts: Any, k: int, *, scale: float = 1e-3) -> Any:
         ) from None
     n_layers = parts.layer_offsets.shape[0] - 1
     if not isinstance(k, (int, np.integer)) or not -n_layers <= k < n_layers:
-        raise IndexError(f"`k` must be a layer index in [0, {n_layers}); got {k!r}")
+        raise InputValueError(
+            f"`k` must be a layer index in [-{n_layers}, {n_layers}); got {k!r}"
+        )
     k = int(k) % n_layers
     q0, q1 = (int(x) for x in parts.layer_offsets[k : k + 2])
     part_offsets = parts.part_offsets[q0 : q1 + 1]

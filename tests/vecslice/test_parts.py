@@ -247,7 +247,8 @@ def test_to_shapely_in_mm():
     assert mp.area == pytest.approx(2.0 - 0.5 + 1.0)
     assert [len(p.interiors) for p in mp.geoms] == [1, 0]
     assert mp.bounds == (0.0, 0.0, 4.0, 1.0)
-    with pytest.raises(IndexError, match="layer index"):
+    msg = r"`k` must be a layer index in \[-2, 2\); got 2"
+    with pytest.raises(ValueError, match=msg):
         to_shapely(parts, 2)
 
 
@@ -345,3 +346,15 @@ def test_random_convex_polygons_union_area(seed, n):
         abs(got.area - union.area) <= union.length + 1
     )  # intersections rounded to 1 µm
     assert shapely.symmetric_difference(got, union).area <= union.length + 1
+
+
+def test_part_views_and_index_errors():
+    parts = make_parts(stack([rect(0, 0, 10, 10)], []))
+    assert parts.part(-2, 0)[0].tolist() == rect(0, 0, 10, 10)
+    assert "LayerParts(2 layers, 1 parts, 1 rings, 4 vertices)" == repr(parts)
+    with pytest.raises(ValueError, match=r"`k` must be a layer index in \[-2, 2\)"):
+        parts.part(2, 0)
+    with pytest.raises(
+        ValueError, match=r"`j` must be a part index of layer 1 in \[0, 0\)"
+    ):
+        parts.part(1, 0)
