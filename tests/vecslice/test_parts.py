@@ -358,3 +358,43 @@ def test_part_views_and_index_errors():
         ValueError, match=r"`j` must be a part index of layer 1 in \[0, 0\)"
     ):
         parts.part(1, 0)
+
+
+@st.composite
+def frames(draw):
+    """Rectangular frames (outline CCW + hole CW); often one in the previous hole."""
+    out, box = [], (0, 0, 400, 400)
+    for _ in range(draw(st.integers(1, 6))):
+        if out and draw(st.booleans()) and min(box[2] - box[0], box[3] - box[1]) > 8:
+            lo = (box[0] + 1, box[1] + 1, box[2] - 1, box[3] - 1)  # island in hole
+        else:
+            lo = (0, 0, 400, 400)
+        xs = sorted(
+            draw(
+                st.lists(st.integers(lo[0], lo[2]), min_size=4, max_size=4, unique=True)
+            )
+        )
+        ys = sorted(
+            draw(
+                st.lists(st.integers(lo[1], lo[3]), min_size=4, max_size=4, unique=True)
+            )
+        )
+        out.append(
+            (
+                rect(xs[0], ys[0], xs[3], ys[3]),
+                rect(xs[1], ys[1], xs[2], ys[2], cw=True),
+            )
+        )
+        box = (xs[1], ys[1], xs[2], ys[2])
+    return out
+
+
+@given(frames())
+def test_nested_frames_match_shapely_union(fr):
+    parts = make_parts(stack([r for f in fr for r in f]))
+    check_invariants(parts)
+    want = shapely.unary_union([shapely.Polygon(o, [h]) for o, h in fr])
+    got = to_shapely(parts, 0, scale=1.0)
+    assert got.is_valid  # holes inside their outline, parts disjoint
+    assert got.area == want.area == layer_area2(parts)[0] / 2
+    assert shapely.symmetric_difference(got, want).area == 0
