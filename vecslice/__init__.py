@@ -18,9 +18,11 @@ from vecslice.layers import layer_heights
 from vecslice.mesh import Mesh, MeshReport, check_mesh, load_mesh
 from vecslice.parts import make_parts
 from vecslice.paths import LayerPaths, Paths
+from vecslice.pipeline import StageTimes, clean_loops, slice_mesh
 from vecslice.settings import SliceSettings
 from vecslice.simplify import simplify
 from vecslice.slicing import slice_contours
+from vecslice.stitch import Stitched, stitch
 from vecslice.storage import SlicedModel, load_sliced
 from vecslice.units import COORD_LIMIT, to_microns
 
@@ -39,16 +41,21 @@ __all__ = [
     "SettingsError",
     "SliceSettings",
     "SlicedModel",
+    "StageTimes",
+    "Stitched",
     "StorageFileError",
     "VecsliceError",
     "VecsliceWarning",
     "__version__",
     "check_mesh",
+    "clean_loops",
     "layer_heights",
     "load_mesh",
     "load_sliced",
     "make_parts",
     "simplify",
     "slice_contours",
+    "slice_mesh",
+    "stitch",
     "to_microns",
 ]

@@ -26,6 +26,7 @@ from vecslice.paths import LayerPaths
 from vecslice.ragged import ragged_take
 from vecslice.settings import SliceSettings
 from vecslice.slicing import slice_contours
+from vecslice.stitch import stitch
 from vecslice.storage import SlicedModel
 
 __all__ = ["StageTimes", "clean_loops", "slice_mesh"]
@@ -131,7 +132,9 @@ class _Stages:
             self.bar.close()
 
 
-_STAGES = ["layers", "contours", "simplify", "tolerance", "parts", "store"]
+_STAGES = [
+    "layers", "contours", "stitch", "simplify", "tolerance", "parts", "store"
+]
 
 
 def slice_mesh(
@@ -164,7 +167,8 @@ def slice_mesh(
     Notes
     -----
     Stages: :func:`vecslice.layer_heights`; :func:`vecslice.slice_contours`
-    (loops by mesh topology, open chains stitched); :func:`clean_loops`
+    (loops by mesh topology); :func:`vecslice.stitch` (open chains joined by
+    CuraEngine's rules; per-layer counts kept in the model); :func:`clean_loops`
     (minimum circumference, CuraEngine simplification, degenerate vertices); the
     slicing tolerance ('inclusive' unions each layer with the next, 'exclusive'
     intersects them); :func:`vecslice.make_parts` (union with NonZero or EvenOdd,
@@ -188,14 +192,17 @@ def slice_mesh(
     st = _Stages(_STAGES, progress)
     try:
         slice_z, print_z, thickness = st.run("layers", layer_heights, mesh, settings)
-        raw = st.run("contours", slice_contours, mesh, slice_z)
+        raw = st.run("contours", slice_contours, mesh, slice_z, stitch=False)
+        raw, stitched = st.run("stitch", stitch, raw)
+        open_chains = raw.open.rings_per_layer() if raw.open is not None else None
         loops = st.run("simplify", clean_loops, raw, settings)
         loops = st.run("tolerance", apply_slicing_tolerance, loops,
                        settings.slicing_tolerance)
         parts = st.run("parts", make_parts, loops,
                        union_overlapping_volumes=settings.union_overlapping_volumes)
         model = st.run("store", SlicedModel.from_parts, parts, slice_z=slice_z,
-                       print_z=print_z, thickness=thickness, open=loops.open)
+                       print_z=print_z, thickness=thickness, open=loops.open,
+                       open_chains=open_chains, stitched_gaps=stitched)
     finally:
         st.close()
     if times is not None:

@@ -14,6 +14,7 @@ from kernels.topology import edge_topology
 from vecslice._validate import as_int_array, check_coord_range
 from vecslice.errors import InputTypeError
 from vecslice.paths import LayerPaths
+from vecslice.stitch import stitch as stitch_chains
 
 __all__ = ["slice_contours"]
 
@@ -38,9 +39,13 @@ def _range_offsets(layers: NDArray[np.int64]) -> NDArray[np.int64]:
     return offsets
 
 
-def _check_mesh(mesh: Any) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+def _check_mesh(
+    mesh: Any, stitch: object
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     from vecslice.mesh import Mesh
 
+    if not isinstance(stitch, bool):
+        raise InputTypeError(f"`stitch` must be a bool; got {stitch!r}")
     if not isinstance(mesh, Mesh):
         raise InputTypeError(
             f"`mesh` must be a vecslice.Mesh (see vecslice.load_mesh); "
@@ -55,7 +60,9 @@ def _check_slice_z(slice_z: ArrayLike) -> NDArray[np.int64]:
     return z
 
 
-def slice_contours(mesh: Any, slice_z: ArrayLike) -> LayerPaths:
+def slice_contours(
+    mesh: Any, slice_z: ArrayLike, *, stitch: bool = True
+) -> LayerPaths:
     """Cut ``mesh`` at every height of ``slice_z`` into raw closed loops.
 
     Parameters
@@ -65,6 +72,9 @@ def slice_contours(mesh: Any, slice_z: ArrayLike) -> LayerPaths:
     slice_z : array_like of shape (L,), int
         Heights in µm, in the mesh's frame. Any order and spacing; the result's
         layer ``k`` is the cut at ``slice_z[k]``.
+    stitch : bool, default True
+        Join the open chains of broken meshes by CuraEngine's rules (see
+        :func:`vecslice.stitch`); ``False`` returns them as the topology left them.
 
     Returns
     -------
@@ -81,7 +91,9 @@ def slice_contours(mesh: Any, slice_z: ArrayLike) -> LayerPaths:
     counts as below it, so a face meets plane z iff ``zmin <= z < zmax``: a plane at
     a model's bottom gives its bottom outline and a plane at its top gives nothing.
     Loops follow the mesh topology: each crossing is joined to the next face's
-    segment through the edge they share (pairwise on non-manifold edges).
+    segment through the edge they share (pairwise on non-manifold edges). Chains
+    that do not close (open surfaces, flipped faces) are stitched; what stays open
+    is returned in ``.open``, never dropped.
 
     Examples
     --------
@@ -92,7 +104,7 @@ def slice_contours(mesh: Any, slice_z: ArrayLike) -> LayerPaths:
     >>> [len(loops.layer(k)) for k in range(2)], loops.layer_area2().tolist()
     ([1, 1], [200000000, 200000000])
     """
-    vertices, faces = _check_mesh(mesh)
+    vertices, faces = _check_mesh(mesh, stitch)
     z = _check_slice_z(slice_z)
     order = np.argsort(z, kind="stable")
     is_sorted = bool(np.all(order == np.arange(z.shape[0])))
@@ -124,9 +136,12 @@ def slice_contours(mesh: Any, slice_z: ArrayLike) -> LayerPaths:
         rank[order] = np.arange(n_layers, dtype=np.int64)
     closed = _group_by_layer(points, cv, cr, cl, rank)
     open_chains = _group_by_layer(points, ov, orr, ol, rank)
-    return LayerPaths._trusted(
+    loops = LayerPaths._trusted(
         closed.coords, closed.ring_offsets, closed.layer_offsets, open_chains
     )
+    if stitch and open_chains.n_rings:
+        loops = stitch_chains(loops).loops
+    return loops
 
 
 def _group_by_layer(
