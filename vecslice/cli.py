@@ -46,6 +46,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.model is None:
             from vecslice.demo import demo_mesh
 
+            if args.scale != 1.0:
+                raise vs.SettingsError(
+                    f"`scale` only applies to a model file; got {args.scale} "
+                    "without one"
+                )
+
             print("no model given: slicing the built-in demo model")
             mesh = demo_mesh()
         else:

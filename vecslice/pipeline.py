@@ -179,7 +179,7 @@ def slice_mesh(
     >>> import trimesh, vecslice as vs
     >>> box = vs.load_mesh(trimesh.creation.box((10, 10, 2)))
     >>> model = vs.slice_mesh(box)
-    >>> model.n_layers, len(model.layer(0)), model.layer_areas()[0]
+    >>> model.n_layers, len(model.layer(0)), float(model.layer_areas()[0])
     (18, 1, 100000000.0)
     """
     if settings is None:

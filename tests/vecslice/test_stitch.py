@@ -85,8 +85,12 @@ def test_open_box_side_is_closed():
     broken = vs.load_mesh(trimesh.Trimesh(m.vertices, m.faces[keep], process=False))
     whole = vs.load_mesh(m)
     z = [-4000, 0, 3000]
-    raw = vs.slice_contours(broken, z)
+    raw = vs.slice_contours(broken, z, stitch=False)
     assert raw.open.rings_per_layer().tolist() == [1, 1, 1]
+    # slice_contours stitches by default, with the same result
+    stitched = vs.slice_contours(broken, z)
+    assert stitched.open.n_rings == 0
+    assert stitched.layer_area2().tolist() == stitch(raw).loops.layer_area2().tolist()
     loops, counts = stitch(raw)
     assert counts.tolist() == [1, 1, 1] and loops.open.n_rings == 0
     ref = vs.slice_contours(whole, z)
