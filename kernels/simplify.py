@@ -31,6 +31,7 @@ from .geometry import (
 )
 
 INT64_MAX = np.iinfo(np.int64).max
+INT64_MIN = np.iinfo(np.int64).min
 MIN_RES2 = 25  # CuraEngine's min_resolution (5 µm), squared
 
 _OPTS = {"cache": True, "nogil": True}
@@ -38,18 +39,18 @@ _INL = {"cache": True, "nogil": True, "inline": "always"}  # hot helpers
 _W1 = types.int64[::1]  # writable work arrays
 
 
-@njit(I64(_W1, _W1, _W1, I64, I64, I64), **_INL)
-def _area_deviation(px, py, pw, b, v, a):
-    """Extrusion-area deviation of removing vertex ``v`` between ``b`` and ``a``."""
-    ab = vsize(px[v] - px[b], py[v] - py[b])
-    bc = vsize(px[a] - px[v], py[a] - py[v])
-    ac = vsize(px[a] - px[b], py[a] - py[b])
+@njit(I64(I64, I64, I64, I64, I64, I64, I64, I64, I64), **_INL)
+def _area_deviation(bx, by, bw, vx, vy, vw, ax, ay, aw):
+    """Extrusion-area deviation of removing vertex v between b and a."""
+    ab = vsize(vx - bx, vy - by)
+    bc = vsize(ax - vx, ay - vy)
+    ac = vsize(ax - bx, ay - by)
     if ab == 0 or ac == 0 or bc == 0:
         return 0
-    wd = max(abs(pw[v] - pw[b]), abs(pw[a] - pw[v]))
+    wd = max(abs(vw - bw), abs(aw - vw))
     if wd > 1:
-        ab_w = tdiv(pw[b] + pw[v], 2)
-        bc_w = tdiv(pw[v] + pw[a], 2)
+        ab_w = tdiv(bw + vw, 2)
+        bc_w = tdiv(vw + aw, 2)
         avg = tdiv(ab * ab_w + bc * bc_w, ac)
         return abs(ab_w - avg) * ab + abs(bc_w - avg) * bc
     if ab > bc:
@@ -57,78 +58,40 @@ def _area_deviation(px, py, pw, b, v, a):
     return wd * ab
 
 
-@njit(I64(_W1, _W1, _W1, B1, _W1, _W1, I64, I64, B1, I64, I64), **_INL)
-def _importance(px, py, pw, has_w, prv, nxt, i, n, closed, max_res2, max_area):
-    """CuraEngine's importance of kept vertex ``i`` (lower is removed first)."""
-    if not closed and (i == 0 or i == n - 1):
+@njit(
+    I64(B1, I64, I64, I64, I64, I64, I64, I64, I64, I64, I64, I64), **_INL
+)
+def _importance(has_w, bx, by, bw, vx, vy, vw, ax, ay, aw, max_res2, max_area):
+    """CuraEngine's importance of vertex v between kept neighbours b and a.
+
+    (Open polyline end points, INT64_MAX, are the caller's business.)
+    """
+    if has_w and _area_deviation(bx, by, bw, vx, vy, vw, ax, ay, aw) > max_area:
         return INT64_MAX
-    b = prv[i]
-    a = nxt[i]
-    if has_w and _area_deviation(px, py, pw, b, i, a) > max_area:
-        return INT64_MAX
-    d2 = dist2_from_line(px[i], py[i], px[b], py[b], px[a], py[a])
+    d2 = dist2_from_line(vx, vy, bx, by, ax, ay)
     if d2 <= MIN_RES2:
         return d2
-    lb = (px[b] - px[i]) * (px[b] - px[i]) + (py[b] - py[i]) * (py[b] - py[i])
-    la = (px[a] - px[i]) * (px[a] - px[i]) + (py[a] - py[i]) * (py[a] - py[i])
+    lb = (bx - vx) * (bx - vx) + (by - vy) * (by - vy)
+    la = (ax - vx) * (ax - vx) + (ay - vy) * (ay - vy)
     if lb > max_res2 and la > max_res2:
         return INT64_MAX
     return d2
 
 
-@njit(types.void(_W1, _W1, _W1, I64), **_INL)
-def _unlink(prv, nxt, dele, i):
-    p = prv[i]
-    q = nxt[i]
-    nxt[p] = q
-    prv[q] = p
-    dele[i] = 1
+@njit(
+    types.Tuple((B1, I64, I64))(I64, I64, I64, I64, I64, I64, I64, I64, I64),
+    **_INL,
+)
+def _collapse(p0x, p0y, p1x, p1y, p2x, p2y, p3x, p3y, max_dev2):
+    """Replace the short edge p1-p2 by the intersection X of lines p0-p1, p2-p3.
 
-
-@njit(B1(_W1, _W1, _W1, B1, _W1, _W1, _W1, I64, I64, I64, B1, I64, I64), **_INL)
-def _remove(px, py, pw, has_w, prv, nxt, dele, i, d2, n, closed, max_res2, max_dev2):
-    """Try to remove vertex ``i`` (CuraEngine ``Simplify::remove``); True if removed."""
-    if d2 <= MIN_RES2:
-        _unlink(prv, nxt, dele, i)
-        return True
-    b = prv[i]
-    a = nxt[i]
-    lb = (px[i] - px[b]) * (px[i] - px[b]) + (py[i] - py[b]) * (py[i] - py[b])
-    la = (px[i] - px[a]) * (px[i] - px[a]) + (py[i] - py[a]) * (py[i] - py[a])
-    if lb <= max_res2 and la <= max_res2:
-        _unlink(prv, nxt, dele, i)
-        return True
-    before_short = lb <= la
-    if before_short:
-        if not closed and b == 0:
-            return False
-        bb = prv[b]
-        ok, x, y = line_line_intersection(
-            px[bb], py[bb], px[b], py[b], px[i], py[i], px[a], py[a]
-        )
-        if not ok:
-            return False
-        dev = dist2_from_segment(px[b], py[b], x, y, px[i], py[i])
-        moved = b
-    else:
-        if not closed and a == n - 1:
-            return False
-        aa = nxt[a]
-        ok, x, y = line_line_intersection(
-            px[b], py[b], px[i], py[i], px[a], py[a], px[aa], py[aa]
-        )
-        if not ok:
-            return False
-        dev = dist2_from_segment(px[i], py[i], x, y, px[a], py[a])
-        moved = a
-    if dev > max_dev2:
-        return False
-    _unlink(prv, nxt, dele, i)
-    if has_w:
-        pw[moved] = tdiv(pw[b] + pw[a], 2)
-    px[moved] = x
-    py[moved] = y
-    return True
+    Returns ``(ok, X)``; ok only if X exists and lies within max_dev² of the
+    segment p1-p2 (CuraEngine's ``dist2_from_segment(p1, X, p2)``).
+    """
+    ok, x, y = line_line_intersection(p0x, p0y, p1x, p1y, p2x, p2y, p3x, p3y)
+    if ok and dist2_from_segment(p1x, p1y, x, y, p2x, p2y) > max_dev2:
+        ok = False
+    return ok, x, y
 
 
 @njit(types.void(_W1, _W1, I64, I64), **_INL)
@@ -168,16 +131,49 @@ def _push(hk, hi, size, key, idx):
     hi[pos] = idx
 
 
+# Vertex flags of _simplify_one. A vertex has at most one queue entry per pass,
+# keyed (imp[i], i), where imp[i] is its importance when the entry was made.
+_DIRTY = 1  # the inputs of its importance (it, its neighbours) changed since
+_FAILED = 2  # a removal attempt failed and its window (itself and two kept
+#              neighbours on each side) is unchanged since: a retry fails too
+_DELETED = 4
+_INHEAP = 8  # its entry is in the heap
+_POPPED = 16  # its entry of this pass is gone (popped, or passed over)
+# A kept vertex with neither _INHEAP nor _POPPED has a "side" entry: kept out
+# of the heap because popping it would change nothing (see _simplify_one).
+
+
 @njit(
-    I64(_W1, _W1, _W1, B1, I64, B1, I64, I64, I64, _W1, _W1, _W1, _W1, _W1),
+    I64(_W1, _W1, _W1, B1, I64, B1, I64, I64, I64, _W1, _W1, _W1, _W1, _W1,
+        _W1, _W1),
     **_OPTS,
 )
 def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
-                  prv, nxt, dele, hk, hi):
+                  prv, nxt, fl, imp, hk, hi, tq):
     """Simplify the ring held in ``px[:n], py[:n]`` in place; return its new size.
 
     Kept vertices are compacted to the front of px/py/pw, in their original order.
-    Work arrays (length >= n): prv, nxt, dele, hk, hi.
+    Work arrays (length >= n): prv, nxt, fl, imp, hk, hi; tq (length >= 12).
+
+    CuraEngine pops every kept vertex in every pass, in (importance, index)
+    order, re-pushing an entry whose importance changed. Most pops change
+    nothing: an entry whose importance is unchanged and either above max_dev²
+    (skipped) or known to fail removal again. Such entries stay out of the heap
+    ("side" entries). The removals happen in exactly CuraEngine's order:
+
+    * the heap pops in (key, index) order and each vertex has at most one
+      entry, so the original heap has popped entry E exactly when the largest
+      entry popped so far (the high-water mark ``hwk, hwi``) is >= E; popping a
+      side entry changes nothing, and only pops of real entries change state;
+    * when a removal changes a side entry's window and the mark has not passed
+      it, the entry enters the heap with its old key, as the original still
+      holds it; if the mark has passed it, the original popped it already;
+    * importances are recomputed only where their inputs changed (``_DIRTY``),
+      which gives the value CuraEngine recomputes at every pop;
+    * a pass whose heap starts empty removes nothing: the loop ends.
+
+    Helpers called here take scalars only: inlined helpers taking arrays cost
+    an atomic reference count update per array and call.
     """
     min_size = 3 if closed else 2
     if n < min_size:
@@ -194,7 +190,7 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
     for i in range(n):
         prv[i] = i - 1
         nxt[i] = i + 1
-        dele[i] = 0
+        fl[i] = _DIRTY
     prv[0] = n - 1
     nxt[n - 1] = 0
     removed = -1
@@ -203,36 +199,140 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
         removed = 0
         size = 0
         for i in range(n):
-            if dele[i] == 0:
-                hk[size] = _importance(px, py, pw, has_w, prv, nxt, i, n, closed,
-                                       max_res2, max_area)
+            f = fl[i]
+            if f & _DELETED:
+                continue
+            if f & _DIRTY:
+                if not closed and (i == 0 or i == n - 1):
+                    imp[i] = INT64_MAX
+                else:
+                    b = prv[i]
+                    a = nxt[i]
+                    imp[i] = _importance(has_w, px[b], py[b], pw[b], px[i], py[i],
+                                         pw[i], px[a], py[a], pw[a], max_res2,
+                                         max_area)
+                f ^= _DIRTY
+            k = imp[i]
+            if k <= max_dev2 and (f & _FAILED) == 0:
+                hk[size] = k
                 hi[size] = i
                 size += 1
+                f = (f & ~_POPPED) | _INHEAP
+            else:
+                f &= ~(_INHEAP | _POPPED)
+            fl[i] = f
         for pos in range(size // 2 - 1, -1, -1):
             _sift_down(hk, hi, pos, size)
-        # each vertex has at most one heap entry; an entry is re-pushed only when
-        # its importance changed, which needs a removal in between, so this ends
+        hwk = INT64_MIN
+        hwi = -1
+        # an entry is re-pushed only when its importance changed, which needs a
+        # removal in between, so this ends
         while size > 0 and n - removed > min_size:
-            imp = hk[0]
+            k = hk[0]
             i = hi[0]
             size -= 1
             if size > 0:
                 hk[0] = hk[size]
                 hi[0] = hi[size]
                 _sift_down(hk, hi, 0, size)
-            cur = _importance(px, py, pw, has_w, prv, nxt, i, n, closed,
-                              max_res2, max_area)
-            if cur != imp:
-                _push(hk, hi, size, cur, i)
-                size += 1
+            if k > hwk or (k == hwk and i > hwi):
+                hwk = k
+                hwi = i
+            f = fl[i]
+            b = prv[i]
+            a = nxt[i]
+            if f & _DIRTY:
+                if not closed and (i == 0 or i == n - 1):
+                    cur = INT64_MAX
+                else:
+                    cur = _importance(has_w, px[b], py[b], pw[b], px[i], py[i],
+                                      pw[i], px[a], py[a], pw[a], max_res2,
+                                      max_area)
+                imp[i] = cur
+                f ^= _DIRTY
+                if cur != k:  # re-push; dirty implies not _FAILED
+                    if cur <= max_dev2:
+                        _push(hk, hi, size, cur, i)
+                        size += 1
+                    else:  # would be skipped unless its inputs change again
+                        f ^= _INHEAP
+                    fl[i] = f
+                    continue
+            f = (f ^ _INHEAP) | _POPPED
+            if k > max_dev2:
+                fl[i] = f
                 continue
-            if cur <= max_dev2:
-                if _remove(px, py, pw, has_w, prv, nxt, dele, i, cur, n, closed,
-                           max_res2, max_dev2):
-                    removed += 1
+            # CuraEngine's remove(i): moved = -1 (nothing moves), b or a
+            moved = -2
+            if k <= MIN_RES2:
+                moved = -1
+            else:
+                vx = px[i]
+                vy = py[i]
+                lb = (vx - px[b]) * (vx - px[b]) + (vy - py[b]) * (vy - py[b])
+                la = (vx - px[a]) * (vx - px[a]) + (vy - py[a]) * (vy - py[a])
+                if lb <= max_res2 and la <= max_res2:
+                    moved = -1
+                elif lb <= la:  # the edge before i is the short one (a tie too)
+                    if closed or b != 0:
+                        bb = prv[b]
+                        ok, x, y = _collapse(px[bb], py[bb], px[b], py[b], vx, vy,
+                                             px[a], py[a], max_dev2)
+                        if ok:
+                            moved = b
+                elif closed or a != n - 1:
+                    aa = nxt[a]
+                    ok, x, y = _collapse(px[b], py[b], vx, vy, px[a], py[a],
+                                         px[aa], py[aa], max_dev2)
+                    if ok:
+                        moved = a
+            if moved == -2:
+                fl[i] = f | _FAILED
+                continue
+            fl[i] = f | _DELETED
+            removed += 1
+            nxt[b] = a
+            prv[a] = b
+            # vertices whose window changed (tq[2q]) and whether their
+            # importance inputs did (tq[2q + 1])
+            tq[0] = b
+            tq[1] = _DIRTY
+            tq[2] = a
+            tq[3] = _DIRTY
+            tq[4] = prv[b]
+            tq[5] = 0
+            tq[6] = nxt[a]
+            tq[7] = 0
+            nt = 4
+            if moved >= 0:
+                if has_w:
+                    pw[moved] = tdiv(pw[b] + pw[a], 2)
+                px[moved] = x
+                py[moved] = y
+                nt = 5
+                if moved == b:
+                    tq[5] = _DIRTY
+                    tq[8] = prv[tq[4]]
+                else:
+                    tq[7] = _DIRTY
+                    tq[8] = nxt[tq[6]]
+                tq[9] = 0
+            for q in range(nt):
+                j = tq[2 * q]
+                f = (fl[j] & ~_FAILED) | tq[2 * q + 1]
+                if (f & (_INHEAP | _POPPED | _DELETED)) == 0:  # side entry
+                    kj = imp[j]
+                    if kj > hwk or (kj == hwk and j > hwi):  # not passed yet
+                        if (f & _DIRTY) != 0 or kj <= max_dev2:
+                            _push(hk, hi, size, kj, j)
+                            size += 1
+                            f |= _INHEAP
+                    else:
+                        f |= _POPPED
+                fl[j] = f
     m = 0
     for i in range(n):
-        if dele[i] == 0:
+        if (fl[i] & _DELETED) == 0:
             px[m] = px[i]
             py[m] = py[i]
             pw[m] = pw[i]
@@ -292,9 +392,11 @@ def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
         pw = np.zeros(max_len, np.int64)
         prv = np.empty(max_len, np.int64)
         nxt = np.empty(max_len, np.int64)
-        dele = np.empty(max_len, np.int64)
+        fl = np.empty(max_len, np.int64)
+        imp = np.empty(max_len, np.int64)
         hk = np.empty(max_len, np.int64)
         hi = np.empty(max_len, np.int64)
+        tq = np.empty(12, np.int64)
         for rr in range(r0, r1):
             start = ring_offsets[rr]
             n = ring_offsets[rr + 1] - start
@@ -304,7 +406,7 @@ def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
                 if has_w:
                     pw[k] = widths[start + k]
             m = _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2,
-                              max_area_deviation, prv, nxt, dele, hk, hi)
+                              max_area_deviation, prv, nxt, fl, imp, hk, hi, tq)
             for k in range(m):
                 buf[start + k, 0] = px[k]
                 buf[start + k, 1] = py[k]
