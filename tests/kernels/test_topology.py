@@ -38,7 +38,7 @@ def check_twins(faces, fe, twin):
     flat = fe.reshape(-1)
     for h in range(len(flat)):
         same = [g for g in range(len(flat)) if flat[g] == flat[h]]
-        start = lambda g: faces[g // 3, g % 3]  # noqa: E731
+        start = lambda g: faces[g // 3, g % 3]
         if len(same) == 2 and start(same[0]) != start(same[1]):
             assert twin[h] == (same[1] if h == same[0] else same[0])
         else:

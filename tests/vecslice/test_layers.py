@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
+from conftest import load_testdata
 
 import vecslice as vs
-from conftest import load_testdata
 from vecslice.layers import layer_count, layer_schedule
 
 
@@ -31,7 +31,8 @@ def test_layer_heights_are_measured_from_the_lowest_point():
         np.array([[0, 0, 0], [1000, 0, 0], [0, 1000, 0], [0, 0, 10000]]),
         np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]),
     )
-    shifted = vs.Mesh.from_arrays(base.vertices + [5, -7, -12345], base.faces)
+    shift = np.array([5, -7, -12345])
+    shifted = vs.Mesh.from_arrays(base.vertices + shift, base.faces)
     s = vs.SliceSettings(initial_layer_height=200)
     z0, p0, t0 = vs.layer_heights(base, s)
     z1, p1, t1 = vs.layer_heights(shifted, s)

@@ -1,11 +1,11 @@
 import numpy as np
 import pytest
-from hypothesis import assume, given
-
 import reference
-import vecslice as vs
 from conftest import MESHES, load_testdata
+from hypothesis import assume, given
 from strategies import closed_meshes
+
+import vecslice as vs
 
 # (file, scale to mm) of every mesh in ../shared/meshes
 ALL_MESHES = [
@@ -171,7 +171,9 @@ def test_matches_slow_reference(case):
     loops = vs.slice_contours(mesh, planes)
     assert loops.open.n_rings == 0
     for k, zk in enumerate(planes):
-        ref_loops, ref_chains = reference.slice_layer(mesh.vertices, mesh.faces, int(zk))
+        ref_loops, ref_chains = reference.slice_layer(
+            mesh.vertices, mesh.faces, int(zk)
+        )
         assert ref_chains == []
         assert reference.canonical_layer(loops.layer(k)) == \
             reference.canonical_layer(ref_loops)

@@ -1,0 +1,79 @@
+"""Random triangle soups: slicing raises nothing but vecslice errors, never hangs,
+and every loop it returns lies inside the mesh's bounds."""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import vecslice as vs
+from strategies import closed_meshes
+
+PLANES = np.arange(-3000, 3001, 500, dtype=np.int64)
+
+
+@st.composite
+def soups(draw):
+    n_v = draw(st.integers(3, 30))
+    # coordinates on a coarse grid, so vertices land exactly on planes and repeat
+    coord = st.integers(-6, 6).map(lambda c: 500 * c)
+    verts = draw(st.lists(st.tuples(coord, coord, coord), min_size=n_v, max_size=n_v))
+    idx = st.integers(0, n_v - 1)
+    faces = draw(st.lists(st.tuples(idx, idx, idx), min_size=1, max_size=60))
+    return np.array(verts, np.int64), np.array(faces, np.int64)
+
+
+@st.composite
+def damaged_closed_meshes(draw):
+    v, f, planes = draw(closed_meshes())
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    f = f.copy()
+    flip = rng.random(len(f)) < draw(st.sampled_from([0.0, 0.05, 0.5]))
+    f[flip] = f[flip][:, ::-1]
+    f = f[rng.random(len(f)) > draw(st.sampled_from([0.0, 0.02, 0.2]))]
+    dup = f[rng.random(len(f)) < 0.05]
+    f = np.concatenate([f, dup])
+    v = np.concatenate([v, v[: len(v) // 3]])  # duplicated positions, unused
+    return v, f, planes
+
+
+def _check(mesh, planes):
+    loops = vs.slice_contours(mesh, planes)
+    lo = mesh.vertices[:, :2].min(axis=0)
+    hi = mesh.vertices[:, :2].max(axis=0)
+    for part in (loops, loops.open):
+        assert part.n_layers == len(planes)
+        assert ((part.coords >= lo) & (part.coords <= hi)).all()
+    # every closed loop is a ring of at least one vertex; open chains keep >= 2
+    assert (np.diff(loops.ring_offsets) >= 1).all()
+    assert (np.diff(loops.open.ring_offsets) >= 2).all()
+    s = vs.SliceSettings(layer_height=250, initial_layer_height=250)
+    model = vs.slice_mesh(mesh, s)
+    # simplification may move a vertex up to max_deviation (CuraEngine's rule:
+    # a short edge is replaced by the intersection of its neighbours)
+    dev = s.max_deviation
+    assert ((model.coords >= lo - dev) & (model.coords <= hi + dev)).all()
+    assert (model.layer_areas() >= 0).all()
+
+
+@settings(max_examples=80)
+@given(soups())
+def test_random_soups_only_raise_vecslice_errors(case):
+    v, f = case
+    try:
+        mesh = vs.Mesh.from_arrays(v, f)
+    except vs.VecsliceError:
+        return  # e.g. every face degenerate: a clear error is the right answer
+    _check(mesh, PLANES)
+
+
+@settings(max_examples=30)
+@given(damaged_closed_meshes())
+def test_damaged_meshes_slice(case):
+    v, f, planes = case
+    try:
+        mesh = vs.Mesh.from_arrays(v, f)
+    except vs.VecsliceError:
+        return
+    _check(mesh, planes)
+    # the same soup with repair still slices
+    _check(mesh.repaired(), planes)
