@@ -6,9 +6,9 @@ import numba
 import numpy as np
 import pytest
 import shapely
-from _simplify_data import MAX_DEVIATION, as_ring_list, noisy_circles
 
 import vecslice as vs
+from _simplify_data import MAX_DEVIATION, as_ring_list, noisy_circles
 
 
 @pytest.fixture(scope="module")

@@ -13,9 +13,9 @@ import os
 
 import numba
 import pytest
-from _workloads import WORKLOADS, heights, manifold_slices, trimesh_sections
 
 import vecslice as vs
+from _workloads import WORKLOADS, heights, manifold_slices, trimesh_sections
 
 FULL = os.environ.get("VECSLICE_BENCH_FULL") == "1"
 

@@ -17,9 +17,9 @@ import manifold3d  # noqa: E402
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 import shapely  # noqa: E402
-from _simplify_data import MAX_DEVIATION, as_ring_list, noisy_circles  # noqa: E402
 
 import vecslice as vs  # noqa: E402
+from _simplify_data import MAX_DEVIATION, as_ring_list, noisy_circles  # noqa: E402
 
 
 def best_of(fn, repeat):

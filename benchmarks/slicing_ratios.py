@@ -19,9 +19,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numba
-from _workloads import heights, manifold_slices, plate, trimesh_sections
 
 import vecslice as vs
+from _workloads import heights, manifold_slices, plate, trimesh_sections
 
 
 def best(fn, *args, repeat: int) -> float:

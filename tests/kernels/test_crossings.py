@@ -1,12 +1,12 @@
 import numpy as np
-import reference
 from hypothesis import given
 from hypothesis import strategies as st
-from strategies import closed_meshes
 
+import reference
 from kernels.crossings import crossing_points, face_segments
 from kernels.loops import face_successors
 from kernels.topology import edge_topology
+from strategies import closed_meshes
 
 coord = st.integers(-(2**30) + 1, 2**30 - 1)
 

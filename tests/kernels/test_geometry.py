@@ -1,11 +1,11 @@
 import math
 
 import pytest
-import reference_simplify as ref
-from conftest import load_testdata
 from hypothesis import given
 from hypothesis import strategies as st
 
+import reference_simplify as ref
+from conftest import load_testdata
 from kernels.geometry import (
     dist2_from_line,
     dist2_from_segment,

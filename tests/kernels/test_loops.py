@@ -1,8 +1,8 @@
 import numpy as np
-import reference
 from hypothesis import given
 from hypothesis import strategies as st
 
+import reference
 from kernels.loops import link_segments
 
 

@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
-import reference_simplify as ref
-from conftest import load_testdata
 from hypothesis import given
 from hypothesis import strategies as st
 
+import reference_simplify as ref
+from conftest import load_testdata
 from kernels.simplify import (
     remove_degenerate_vertices,
     ring_perimeters,

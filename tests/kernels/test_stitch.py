@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
-import reference_stitch
 from hypothesis import given
 from hypothesis import strategies as st
 
+import reference_stitch
 from kernels.stitch import stitch_chains
 
 

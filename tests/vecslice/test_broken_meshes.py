@@ -4,9 +4,9 @@ meshes degrade gracefully). Each test states the expected result."""
 import numpy as np
 import pytest
 import trimesh
-from conftest import MESHES
 
 import vecslice as vs
+from conftest import MESHES
 
 SETTINGS = vs.SliceSettings(layer_height=200)
 

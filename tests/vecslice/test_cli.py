@@ -3,9 +3,9 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import MESHES
 
 import vecslice as vs
+from conftest import MESHES
 from vecslice.cli import main
 
 

@@ -4,9 +4,9 @@ and every loop it returns lies inside the mesh's bounds."""
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from strategies import closed_meshes
 
 import vecslice as vs
+from strategies import closed_meshes
 
 PLANES = np.arange(-3000, 3001, 500, dtype=np.int64)
 

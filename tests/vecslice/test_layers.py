@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
-from conftest import load_testdata
 
 import vecslice as vs
+from conftest import load_testdata
 from vecslice.layers import layer_count, layer_schedule
 
 

@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 import trimesh
-from conftest import MESHES, load_testdata
 
 import vecslice as vs
+from conftest import MESHES, load_testdata
 
 WATERTIGHT = [
     ("Voron_Design_Cube_v7.stl", 1.0), ("featuretype.STL", 25.4),

@@ -2,9 +2,9 @@ import math
 
 import numpy as np
 import pytest
-from conftest import load_testdata
 
 import vecslice as vs
+from conftest import load_testdata
 from vecslice.simplify import remove_degenerate_vertices, ring_perimeters, simplify
 
 VECTORS = load_testdata("cura_simplify_vectors.json")

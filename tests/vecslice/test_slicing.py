@@ -1,11 +1,11 @@
 import numpy as np
 import pytest
-import reference
-from conftest import MESHES, load_testdata
 from hypothesis import assume, given
-from strategies import closed_meshes
 
+import reference
 import vecslice as vs
+from conftest import MESHES, load_testdata
+from strategies import closed_meshes
 
 # (file, scale to mm) of every mesh in ../shared/meshes
 ALL_MESHES = [

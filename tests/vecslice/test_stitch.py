@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
-import reference_stitch
 import trimesh
 from hypothesis import given
 from hypothesis import strategies as st
 
+import reference_stitch
 import vecslice as vs
 from vecslice.errors import InputTypeError, SettingsError
 from vecslice.paths import LayerPaths
