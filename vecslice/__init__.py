@@ -16,6 +16,7 @@ from vecslice.errors import (
 )
 from vecslice.layers import layer_heights
 from vecslice.mesh import Mesh, MeshReport, check_mesh, load_mesh
+from vecslice.metrics import ResolutionStats, resolution_stats
 from vecslice.parts import make_parts
 from vecslice.paths import LayerPaths, Paths
 from vecslice.pipeline import StageTimes, clean_loops, slice_mesh
@@ -38,6 +39,7 @@ __all__ = [
     "MeshFileError",
     "MeshReport",
     "Paths",
+    "ResolutionStats",
     "SettingsError",
     "SliceSettings",
     "SlicedModel",
@@ -53,6 +55,7 @@ __all__ = [
     "load_mesh",
     "load_sliced",
     "make_parts",
+    "resolution_stats",
     "simplify",
     "slice_contours",
     "slice_mesh",
