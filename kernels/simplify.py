@@ -96,39 +96,50 @@ def _collapse(p0x, p0y, p1x, p1y, p2x, p2y, p3x, p3y, max_dev2):
 
 @njit(types.void(_W1, _W1, I64, I64), **_INL)
 def _sift_down(hk, hi, pos, size):
-    """Restore the heap below ``pos``; entries ordered by (key, index)."""
-    k = hk[pos]
-    v = hi[pos]
+    """Restore the heap below ``pos``; entries ordered by (key, index).
+
+    Indices are cast to unsigned (all are >= 0): numba then skips the
+    negative-index wrap-around code.
+    """
+    p = np.uint64(pos)
+    end = np.uint64(size)
+    k = hk[p]
+    v = hi[p]
     while True:
-        c = 2 * pos + 1
-        if c >= size:
+        c = p + p + np.uint64(1)
+        if c >= end:
             break
-        r = c + 1
-        if r < size and (hk[r] < hk[c] or (hk[r] == hk[c] and hi[r] < hi[c])):
-            c = r
-        if hk[c] < k or (hk[c] == k and hi[c] < v):
-            hk[pos] = hk[c]
-            hi[pos] = hi[c]
-            pos = c
+        r = c + np.uint64(1)
+        kc = hk[c]
+        if r < end:
+            kr = hk[r]
+            if kr < kc or (kr == kc and hi[r] < hi[c]):
+                c = r
+                kc = kr
+        if kc < k or (kc == k and hi[c] < v):
+            hk[p] = kc
+            hi[p] = hi[c]
+            p = c
         else:
             break
-    hk[pos] = k
-    hi[pos] = v
+    hk[p] = k
+    hi[p] = v
 
 
 @njit(types.void(_W1, _W1, I64, I64, I64), **_INL)
 def _push(hk, hi, size, key, idx):
     """Insert (key, idx) into a heap holding ``size`` entries."""
-    pos = size
-    while pos > 0:
-        parent = (pos - 1) >> 1
-        if hk[parent] < key or (hk[parent] == key and hi[parent] < idx):
+    p = np.uint64(size)
+    while p > np.uint64(0):
+        parent = (p - np.uint64(1)) >> np.uint64(1)
+        kp = hk[parent]
+        if kp < key or (kp == key and hi[parent] < idx):
             break
-        hk[pos] = hk[parent]
-        hi[pos] = hi[parent]
-        pos = parent
-    hk[pos] = key
-    hi[pos] = idx
+        hk[p] = kp
+        hi[p] = hi[parent]
+        p = parent
+    hk[p] = key
+    hi[p] = idx
 
 
 # Vertex flags of _simplify_one. A vertex has at most one queue entry per pass,
@@ -250,7 +261,7 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
                                       max_area)
                 imp[i] = cur
                 f ^= _DIRTY
-                if cur != k:  # re-push; dirty implies not _FAILED
+                if cur > k:  # re-push; dirty implies not _FAILED
                     if cur <= max_dev2:
                         _push(hk, hi, size, cur, i)
                         size += 1
@@ -258,6 +269,9 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
                         f ^= _INHEAP
                     fl[i] = f
                     continue
+                # cur < k: the re-pushed entry (cur, i) would be the smallest
+                # (all others are > (k, i)), popped at once: go on with it
+                k = cur
             f = (f ^ _INHEAP) | _POPPED
             if k > max_dev2:
                 fl[i] = f
