@@ -8,7 +8,8 @@ arrays in one pass, each edge or face writing its own slice (count, scan, fill).
 import numpy as np
 from numba import njit, prange, types
 
-from ._types import I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+from ._types import B1_1D_OUT, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+from .loops import pair_open_ends
 
 # (down edge, up edge) for each above-code (bit j set: vertex j above the plane).
 # The down edge j runs from an above vertex j to a below vertex j + 1, the up edge the
@@ -71,21 +72,29 @@ def crossing_points(vertices, edge_vertices, vert_layer, edge_offsets, z):
 
 
 @njit(
-    types.Tuple((I64_1D_OUT, I64_1D_OUT, I64_1D_OUT))(
-        I64_2D, I64_2D, I64_1D, I64_1D, I64_1D
+    types.Tuple((I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, B1_1D_OUT))(
+        I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D
     ),
     cache=True, nogil=True, parallel=True,
 )
-def face_segments(faces, face_edges, vert_layer, edge_base, face_offsets):
-    """One directed segment per (face, plane) pair, as crossing ids.
+def face_segments(faces, face_edges, vert_layer, edge_base, face_offsets, twin):
+    """One directed segment per (face, plane) pair, and its successor.
 
     Face ``f`` meets the planes ``k`` with ``min(vert_layer) <= k < max(vert_layer)``
     over its vertices; its segments are ``face_offsets[f]:face_offsets[f + 1]`` of the
-    results ``(seg_from, seg_to, seg_layer)``. The crossing of edge ``e`` with plane
-    ``k`` has id ``edge_base[e] + k``. A vertex is above plane ``k`` iff
+    results ``(seg_from, seg_to, seg_layer, next, has_prev)``. A segment runs from
+    the crossing on the edge where the face goes from above to below the plane to
+    the crossing where it goes back up; the crossing of edge ``e`` with plane ``k``
+    has id ``edge_base[e] + k``. A vertex is above plane ``k`` iff
     ``k < vert_layer[v]`` (a vertex on the plane counts as below).
 
-    Preconditions: as :func:`crossing_points`; ``face_edges`` from
+    Where the edge a segment ends on has a twin half-edge (a closed, consistently
+    wound edge), its successor ``next`` is the twin face's segment on the same
+    plane: no search. The remaining ends (open, non-manifold or inconsistently
+    wound edges) are paired by :func:`pair_open_ends`. ``next`` is -1 where a chain
+    ends and is injective.
+
+    Preconditions: as :func:`crossing_points`; ``face_edges`` and ``twin`` from
     ``edge_topology``; ``face_offsets`` the cumulative sum of the per-face counts.
     """
     n_faces = faces.shape[0]
@@ -93,6 +102,10 @@ def face_segments(faces, face_edges, vert_layer, edge_base, face_offsets):
     seg_from = np.empty(n_seg, dtype=np.int64)
     seg_to = np.empty(n_seg, dtype=np.int64)
     seg_layer = np.empty(n_seg, dtype=np.int64)
+    nxt = np.full(n_seg, -1, dtype=np.int64)
+    has_prev = np.zeros(n_seg, dtype=np.bool_)
+    open_in = np.zeros(n_seg, dtype=np.bool_)
+    open_out = np.zeros(n_seg, dtype=np.bool_)
     down_of = np.array(DOWN_EDGE, dtype=np.int64)
     up_of = np.array(UP_EDGE, dtype=np.int64)
     for f in prange(n_faces):
@@ -106,8 +119,23 @@ def face_segments(faces, face_edges, vert_layer, edge_base, face_offsets):
         k = min(l0, min(l1, l2))
         for i in range(start, stop):
             code = (1 if k < l0 else 0) + (2 if k < l1 else 0) + (4 if k < l2 else 0)
-            seg_from[i] = edge_base[face_edges[f, down_of[code]]] + k
-            seg_to[i] = edge_base[face_edges[f, up_of[code]]] + k
+            jd = down_of[code]
+            ju = up_of[code]
+            seg_from[i] = edge_base[face_edges[f, jd]] + k
+            seg_to[i] = edge_base[face_edges[f, ju]] + k
             seg_layer[i] = k
+            tw = twin[3 * f + ju]
+            if tw >= 0:
+                g = tw // 3
+                lo_g = min(vert_layer[faces[g, 0]],
+                           min(vert_layer[faces[g, 1]], vert_layer[faces[g, 2]]))
+                t = face_offsets[g] + k - lo_g
+                nxt[i] = t
+                has_prev[t] = True
+            else:
+                open_in[i] = True
+            if twin[3 * f + jd] < 0:
+                open_out[i] = True
             k += 1
-    return seg_from, seg_to, seg_layer
+    pair_open_ends(seg_from, seg_to, open_in, open_out, nxt, has_prev)
+    return seg_from, seg_to, seg_layer, nxt, has_prev

@@ -1,10 +1,9 @@
 """Kernels linking (face, layer) segments into loops and open chains."""
 
 import numpy as np
-from numba import njit, prange, types
+from numba import njit, types
 
-from ._types import B1_1D, B1_1D_OUT, I64_1D, I64_1D_OUT, I64_2D
-from .crossings import DOWN_EDGE, UP_EDGE
+from ._types import B1_1D, B1_1D_W, I64_1D, I64_1D_OUT, I64_1D_W
 
 _LINK_OUT = types.Tuple(
     (I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT)
@@ -12,60 +11,24 @@ _LINK_OUT = types.Tuple(
 
 
 @njit(
-    types.Tuple((I64_1D_OUT, B1_1D_OUT))(
-        I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, I64_1D
-    ),
-    cache=True, nogil=True, parallel=True,
+    types.void(I64_1D, I64_1D, B1_1D, B1_1D, I64_1D_W, B1_1D_W),
+    cache=True, nogil=True,
 )
-def face_successors(faces, vert_layer, face_offsets, twin, seg_from, seg_to):
-    """Successor of each (face, layer) segment of :func:`face_segments`.
+def pair_open_ends(seg_from, seg_to, open_in, open_out, out_next, out_has_prev):
+    """Join segments at crossings that topology alone does not pair.
 
-    Where the edge a segment ends on has a twin half-edge (a closed, consistently
-    wound edge), the successor is the twin face's segment on the same layer: no
-    search. At the remaining crossings (open, non-manifold or inconsistently wound
-    edges) the ``k``-th segment ending there, by segment index, is joined to the
-    ``k``-th segment starting there; surplus ends stay unjoined. Returns ``next``
-    (-1 where a chain ends) and ``has_prev``; ``next`` is injective.
+    Among the segments flagged ``open_in`` (their end lies on an edge without a
+    twin) and ``open_out`` (their start does), the ``k``-th segment ending at a
+    crossing, by segment index, is joined to the ``k``-th starting there; surplus
+    ends stay unjoined. Writes ``out_next`` and ``out_has_prev`` in place.
 
-    Preconditions: the arguments of :func:`face_segments` and its results
-    ``seg_from``, ``seg_to``; ``twin`` from ``edge_topology``.
+    Preconditions: crossing ids of open ends never meet twin-paired segments
+    (all half-edges of an edge are twinned or none is).
     """
-    n_faces = faces.shape[0]
-    n_seg = seg_from.shape[0]
-    nxt = np.full(n_seg, -1, dtype=np.int64)
-    has_prev = np.zeros(n_seg, dtype=np.bool_)
-    open_in = np.zeros(n_seg, dtype=np.bool_)
-    open_out = np.zeros(n_seg, dtype=np.bool_)
-    down_of = np.array(DOWN_EDGE, dtype=np.int64)
-    up_of = np.array(UP_EDGE, dtype=np.int64)
-    for f in prange(n_faces):
-        start = face_offsets[f]
-        stop = face_offsets[f + 1]
-        if stop == start:
-            continue
-        l0 = vert_layer[faces[f, 0]]
-        l1 = vert_layer[faces[f, 1]]
-        l2 = vert_layer[faces[f, 2]]
-        k = min(l0, min(l1, l2))
-        for s in range(start, stop):
-            code = (1 if k < l0 else 0) + (2 if k < l1 else 0) + (4 if k < l2 else 0)
-            tw = twin[3 * f + up_of[code]]
-            if tw >= 0:
-                g = tw // 3
-                lo_g = min(vert_layer[faces[g, 0]],
-                           min(vert_layer[faces[g, 1]], vert_layer[faces[g, 2]]))
-                t = face_offsets[g] + k - lo_g
-                nxt[s] = t
-                has_prev[t] = True
-            else:
-                open_in[s] = True
-            if twin[3 * f + down_of[code]] < 0:
-                open_out[s] = True
-            k += 1
     ins = np.flatnonzero(open_in)
     outs = np.flatnonzero(open_out)
     if ins.shape[0] == 0 or outs.shape[0] == 0:
-        return nxt, has_prev
+        return
     key_in = seg_to[ins]
     key_out = seg_from[outs]
     order_in = np.argsort(key_in, kind="mergesort")
@@ -82,11 +45,10 @@ def face_successors(faces, vert_layer, face_offsets, twin, seg_from, seg_to):
         else:
             s = ins[order_in[i]]
             t = outs[order_out[o]]
-            nxt[s] = t
-            has_prev[t] = True
+            out_next[s] = t
+            out_has_prev[t] = True
             i += 1
             o += 1
-    return nxt, has_prev
 
 
 @njit(_LINK_OUT(I64_1D, B1_1D, I64_1D, I64_1D, I64_1D), cache=True, nogil=True)
@@ -106,7 +68,7 @@ def link_segments(nxt, has_prev, seg_from, seg_to, seg_layer):
     ``has_prev`` whether some segment has it as successor.
 
     Preconditions: ``nxt`` injective and consistent with ``has_prev`` (as
-    :func:`face_successors` makes it); a segment and its successor share a layer.
+    ``face_segments`` makes it); a segment and its successor share a layer.
     """
     n_seg = seg_from.shape[0]
     visited = np.zeros(n_seg, dtype=np.bool_)

@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from kernels.crossings import crossing_points, face_segments
-from kernels.loops import face_successors, link_segments
+from kernels.loops import link_segments
 from kernels.rings import group_rings
 from kernels.topology import edge_topology
 from vecslice._validate import as_int_array, check_coord_range
@@ -122,11 +122,8 @@ def slice_contours(
     points = crossing_points(vertices, edge_vertices, vert_layer, edge_offsets, zs)
     edge_base = edge_offsets[:-1] - np.minimum(edge_layers[:, 0], edge_layers[:, 1])
     face_offsets = _range_offsets(vert_layer[faces])
-    seg_from, seg_to, seg_layer = face_segments(
-        faces, face_edges, vert_layer, edge_base, face_offsets
-    )
-    nxt, has_prev = face_successors(
-        faces, vert_layer, face_offsets, twin, seg_from, seg_to
+    seg_from, seg_to, seg_layer, nxt, has_prev = face_segments(
+        faces, face_edges, vert_layer, edge_base, face_offsets, twin
     )
     cv, cr, cl, ov, orr, ol = link_segments(nxt, has_prev, seg_from, seg_to, seg_layer)
     if is_sorted:

@@ -4,7 +4,6 @@ from hypothesis import strategies as st
 
 import reference
 from kernels.crossings import crossing_points, face_segments
-from kernels.loops import face_successors
 from kernels.topology import edge_topology
 from strategies import closed_meshes
 
@@ -63,8 +62,7 @@ def test_face_successors_match_crossing_id_linking(case, seed):
     if len(f) == 0:
         return
     z, fe, ev, twin, vl, eo, fo, eb = _prepare(v, f, planes)
-    sf, st_, sl = face_segments(f, fe, vl, eb, fo)
-    nxt, has_prev = face_successors(f, vl, fo, twin, sf, st_)
+    sf, st_, _, nxt, has_prev = face_segments(f, fe, vl, eb, fo, twin)
     ref_nxt, ref_prev = reference.successors(sf, st_, int(eo[-1]))
     assert nxt.tolist() == ref_nxt
     assert has_prev.tolist() == ref_prev

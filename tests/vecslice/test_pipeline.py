@@ -87,15 +87,20 @@ def test_overlapping_bodies_merge_with_nonzero_not_with_even_odd():
     assert xor.layer_areas()[k] == 2 * 5_000 * 10_000
 
 
+def cura_settings(case):
+    """SliceSettings from a CuraEngine slicing test's settings."""
+    cfg = case["settings_microns"]
+    return vs.SliceSettings(initial_layer_height=cfg["initial_layer_thickness"],
+                            layer_height=cfg["layer_thickness"],
+                            max_resolution=cfg["max_resolution"],
+                            max_deviation=cfg["max_deviation"],
+                            max_area_deviation=cfg["max_area_deviation"],
+                            minimum_polygon_circumference=cfg["min_circumference"])
+
+
 def test_cura_cube_end_to_end_is_the_square():
     case = load_testdata("cura_slice_vectors.json")["Cube"]
-    cfg = case["settings_microns"]
-    s = vs.SliceSettings(initial_layer_height=cfg["initial_layer_thickness"],
-                         layer_height=cfg["layer_thickness"],
-                         max_resolution=cfg["max_resolution"],
-                         max_deviation=cfg["max_deviation"],
-                         max_area_deviation=cfg["max_area_deviation"],
-                         minimum_polygon_circumference=cfg["min_circumference"])
+    s = cura_settings(case)
     model = vs.slice_mesh(mesh_of("cura/cube.stl"), s)
     assert model.n_layers == 99 and model.slice_z.tolist() == case["layer_z"]
     square = sorted(map(tuple, case["expectation"]["square"]))
@@ -108,13 +113,7 @@ def test_cura_cube_end_to_end_is_the_square():
 def test_cura_cylinder_end_to_end_within_cura_tolerance():
     shapely = pytest.importorskip("shapely")
     case = load_testdata("cura_slice_vectors.json")["Cylinder1000"]
-    cfg = case["settings_microns"]
-    s = vs.SliceSettings(initial_layer_height=cfg["initial_layer_thickness"],
-                         layer_height=cfg["layer_thickness"],
-                         max_resolution=cfg["max_resolution"],
-                         max_deviation=cfg["max_deviation"],
-                         max_area_deviation=cfg["max_area_deviation"],
-                         minimum_polygon_circumference=cfg["min_circumference"])
+    s = cura_settings(case)
     model = vs.slice_mesh(mesh_of("cura/cylinder1000.stl"), s)
     ref = shapely.Polygon(case["expectation"]["reference_circle"])
     for k in range(0, 99, 7):
