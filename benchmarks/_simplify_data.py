@@ -1,4 +1,6 @@
-"""Inputs for the simplify benchmarks: noisy circles, fixed seed (no pytest here).
+"""Inputs for the simplify benchmarks (no pytest here): noisy circles with a fixed
+seed, and the raw slice loops of five 3DBenchy copies at 0.1 mm (the real-mesh
+input; needs ../shared/meshes).
 
 Imported by ``bench_simplify.py`` (fixtures) and ``simplify_ratios.py`` (script).
 """
@@ -35,3 +37,15 @@ def noisy_circles(n_rings: int = N_RINGS, n_verts: int = N_VERTS,
 
 def as_ring_list(coords: np.ndarray, offsets: np.ndarray) -> list[np.ndarray]:
     return [coords[offsets[i]:offsets[i + 1]] for i in range(len(offsets) - 1)]
+
+
+def benchy_loops(copies: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """(coords, ring_offsets) of the raw closed loops of ``copies`` 3DBenchy copies
+    sliced at 0.1 mm (2.7 M vertices for five copies), before any simplification.
+    """
+    import vecslice as vs
+    from _workloads import heights, plate
+
+    mesh = plate(copies)
+    p = vs.slice_contours(mesh, heights(mesh)).paths()
+    return np.ascontiguousarray(p.coords), np.ascontiguousarray(p.ring_offsets)

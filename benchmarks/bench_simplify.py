@@ -1,4 +1,5 @@
-"""Throughput of vs.simplify beside clipper2, shapely and manifold3d (same input)."""
+"""Throughput of vs.simplify beside clipper2, shapely and manifold3d (same input):
+noisy circles, and (vecslice and clipper2) the raw loops of five Benchies at 0.1 mm."""
 
 import clipper2
 import manifold3d
@@ -8,7 +9,7 @@ import pytest
 import shapely
 
 import vecslice as vs
-from _simplify_data import MAX_DEVIATION, as_ring_list, noisy_circles
+from _simplify_data import MAX_DEVIATION, as_ring_list, benchy_loops, noisy_circles
 
 
 @pytest.fixture(scope="module")
@@ -16,6 +17,19 @@ def circles():
     coords, offsets = noisy_circles()
     paths = vs.Paths(coords, offsets)
     vs.simplify(paths)  # load / compile the JIT outside the timing
+    return paths
+
+
+@pytest.fixture(scope="module")
+def benchy5_loops():
+    """Raw loops of five Benchies at 0.1 mm (the real-mesh input)."""
+    from _workloads import MESHES
+
+    if not MESHES.exists():
+        pytest.skip(f"shared meshes not found at {MESHES}")
+    coords, offsets = benchy_loops(5)
+    paths = vs.Paths(coords, offsets)
+    vs.simplify(paths)
     return paths
 
 
@@ -60,3 +74,19 @@ def test_manifold3d_cross_section_simplify(benchmark, circles):
     out = benchmark(cs.simplify, float(MAX_DEVIATION))
     assert out.num_contour() == len(rings)
     assert out.num_vert() < circles.coords.shape[0] // 2
+
+
+@pytest.mark.benchmark(group="simplify.benchy5_loops")
+def test_vecslice_simplify_benchy5_loops(benchmark, benchy5_loops):
+    _info(benchmark, benchy5_loops)
+    out = benchmark(vs.simplify, benchy5_loops)
+    assert len(out) == len(benchy5_loops)
+    assert 0 < out.coords.shape[0] < benchy5_loops.coords.shape[0] // 2
+
+
+@pytest.mark.benchmark(group="simplify.benchy5_loops")
+def test_clipper2_simplify_paths_benchy5_loops(benchmark, benchy5_loops):
+    _info(benchmark, benchy5_loops)
+    rings = as_ring_list(benchy5_loops.coords, benchy5_loops.ring_offsets)
+    out = benchmark(clipper2.simplify_paths, rings, float(MAX_DEVIATION), True)
+    assert len(out) == len(rings)

@@ -1,6 +1,8 @@
-"""Print vertices/s of vs.simplify, clipper2, shapely and manifold3d on noisy circles.
+"""Print vertices/s of vs.simplify, clipper2, shapely and manifold3d on noisy circles,
+and of vs.simplify and clipper2 on the raw loops of five 3DBenchy copies at 0.1 mm.
 
-Run: ``python benchmarks/simplify_ratios.py`` (best of ``--repeat`` runs each).
+Run: ``python benchmarks/simplify_ratios.py`` (best of ``--repeat`` runs each;
+``--no-mesh`` skips the real-mesh input, which takes a few seconds to slice).
 """
 
 from __future__ import annotations
@@ -19,7 +21,12 @@ import numpy as np  # noqa: E402
 import shapely  # noqa: E402
 
 import vecslice as vs  # noqa: E402
-from _simplify_data import MAX_DEVIATION, as_ring_list, noisy_circles  # noqa: E402
+from _simplify_data import (  # noqa: E402
+    MAX_DEVIATION,
+    as_ring_list,
+    benchy_loops,
+    noisy_circles,
+)
 
 
 def best_of(fn, repeat):
@@ -36,6 +43,7 @@ def main() -> None:
     ap.add_argument("--rings", type=int, default=1000)
     ap.add_argument("--verts", type=int, default=1000)
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--no-mesh", action="store_true")
     args = ap.parse_args()
     coords, offsets = noisy_circles(args.rings, args.verts)
     paths = vs.Paths(coords, offsets)
@@ -56,6 +64,28 @@ def main() -> None:
     rate = {}
     for name, fn in runs.items():
         t = best_of(fn, args.repeat)
+        rate[name] = n / t
+        print(f"{name:>11}: {t * 1e3:9.1f} ms  {rate[name] / 1e6:8.2f} M vertices/s")
+    print(f"ratio vecslice/clipper2 = {rate['vecslice'] / rate['clipper2']:.3f}")
+    if not args.no_mesh:
+        mesh_ratio(args.repeat)
+
+
+def mesh_ratio(repeat: int) -> None:
+    """vs.simplify against clipper2 on the raw loops of five Benchies at 0.1 mm."""
+    coords, offsets = benchy_loops(5)
+    paths = vs.Paths(coords, offsets)
+    rings = as_ring_list(coords, offsets)
+    vs.simplify(paths)
+    runs = {
+        "vecslice": lambda: vs.simplify(paths),
+        "clipper2": lambda: clipper2.simplify_paths(rings, float(MAX_DEVIATION), True),
+    }
+    n = coords.shape[0]
+    print(f"raw loops of 5 Benchies at 0.1 mm: {len(rings)} rings, {n} vertices")
+    rate = {}
+    for name, fn in runs.items():
+        t = best_of(fn, repeat)
         rate[name] = n / t
         print(f"{name:>11}: {t * 1e3:9.1f} ms  {rate[name] / 1e6:8.2f} M vertices/s")
     print(f"ratio vecslice/clipper2 = {rate['vecslice'] / rate['clipper2']:.3f}")
