@@ -20,6 +20,7 @@ given, satisfy |w| < 2**30.
 
 import numpy as np
 from numba import njit, prange, types
+from numba.cpython.unsafe.numbers import trailing_zeros
 
 from ._types import B1, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 from .geometry import (
@@ -37,6 +38,9 @@ MIN_RES2 = 25  # CuraEngine's min_resolution (5 µm), squared
 _OPTS = {"cache": True, "nogil": True}
 _INL = {"cache": True, "nogil": True, "inline": "always"}  # hot helpers
 _W1 = types.int64[::1]  # writable work arrays
+# keys d*d, 0 <= d < nb, go to buckets (one bitmap over the ring's vertex
+# indices each) instead of the heap when max_deviation < _MAX_BUCKETS
+_MAX_BUCKETS = 65
 
 
 @njit(I64(I64, I64, I64, I64, I64, I64, I64, I64, I64), **_INL)
@@ -142,6 +146,17 @@ def _push(hk, hi, size, key, idx):
     hi[p] = idx
 
 
+@njit(I64(I64, I64), **_INL)
+def _bucket(key, nb):
+    """Bucket of a queue key: d if key == d*d with 0 <= d < nb, else -1 (heap)."""
+    if key < 0 or key >= nb * nb:
+        return -1
+    d = np.int64(np.sqrt(np.float64(key)))  # exact for these small squares
+    if d * d == key:
+        return d
+    return -1
+
+
 # Vertex flags of _simplify_one. A vertex has at most one queue entry per pass,
 # keyed (imp[i], i), where imp[i] is its importance when the entry was made.
 _DIRTY = 1  # the inputs of its importance (it, its neighbours) changed since
@@ -156,15 +171,24 @@ _POPPED = 16  # its entry of this pass is gone (popped, or passed over)
 
 @njit(
     I64(_W1, _W1, _W1, B1, I64, B1, I64, I64, I64, _W1, _W1, _W1, _W1, _W1,
-        _W1, _W1),
+        _W1, _W1, _W1, _W1, I64),
     **_OPTS,
 )
 def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
-                  prv, nxt, fl, imp, hk, hi, tq):
+                  prv, nxt, fl, imp, hk, hi, tq, bits, bq, nb):
     """Simplify the ring held in ``px[:n], py[:n]`` in place; return its new size.
 
     Kept vertices are compacted to the front of px/py/pw, in their original order.
-    Work arrays (length >= n): prv, nxt, fl, imp, hk, hi; tq (length >= 12).
+    Work arrays (length >= n): prv, nxt, fl, imp, hk, hi; tq (length >= 12);
+    bits (length >= nb * ceil(n / 64)) and bq (length >= 2 * nb) for ``nb``
+    buckets (0: the heap alone).
+
+    The priority queue pops (key, index) in increasing order. It is a bucket
+    queue for the keys d*d with d < nb (importances are squared integer
+    distances, so nearly all keys <= max_dev² are such squares): bucket d is a
+    bitmap over the vertex indices, scanned from its lowest possibly set word;
+    other keys go to a binary heap (hk, hi), and the smaller of both heads
+    pops first.
 
     CuraEngine pops every kept vertex in every pass, in (importance, index)
     order, re-pushing an entry whose importance changed. Most pops change
@@ -204,11 +228,19 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
         fl[i] = _DIRTY
     prv[0] = n - 1
     nxt[n - 1] = 0
+    nw = (n + 63) >> 6
+    for q in range(nb * nw):
+        bits[q] = 0
+    for d in range(nb):
+        bq[d] = 0  # entries in bucket d
+        bq[nb + d] = nw  # no set bit in bucket d below this word
     removed = -1
     # every pass that continues removes >= 1 vertex, so at most n passes
     while n - removed > min_size and removed != 0:
         removed = 0
-        size = 0
+        size = 0  # heap entries
+        nbk = 0  # bucket entries
+        dmin = nb  # no entry in a bucket below dmin
         for i in range(n):
             f = fl[i]
             if f & _DELETED:
@@ -225,9 +257,18 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
                 f ^= _DIRTY
             k = imp[i]
             if k <= max_dev2 and (f & _FAILED) == 0:
-                hk[size] = k
-                hi[size] = i
-                size += 1
+                d = _bucket(k, nb)
+                if d >= 0:
+                    w = i >> 6
+                    bits[d * nw + w] |= np.int64(1) << (i & 63)
+                    bq[d] += 1
+                    bq[nb + d] = min(bq[nb + d], w)
+                    dmin = min(dmin, d)
+                    nbk += 1
+                else:
+                    hk[size] = k
+                    hi[size] = i
+                    size += 1
                 f = (f & ~_POPPED) | _INHEAP
             else:
                 f &= ~(_INHEAP | _POPPED)
@@ -238,14 +279,31 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
         hwi = -1
         # an entry is re-pushed only when its importance changed, which needs a
         # removal in between, so this ends
-        while size > 0 and n - removed > min_size:
-            k = hk[0]
-            i = hi[0]
-            size -= 1
-            if size > 0:
-                hk[0] = hk[size]
-                hi[0] = hi[size]
-                _sift_down(hk, hi, 0, size)
+        while size + nbk > 0 and n - removed > min_size:
+            from_bucket = False
+            if nbk > 0:
+                while bq[dmin] == 0:
+                    dmin += 1
+                base = dmin * nw
+                w = bq[nb + dmin]
+                while bits[base + w] == 0:
+                    w += 1
+                bq[nb + dmin] = w
+                k = dmin * dmin
+                i = (w << 6) + trailing_zeros(bits[base + w])
+                from_bucket = size == 0 or k < hk[0] or (k == hk[0] and i < hi[0])
+            if from_bucket:
+                bits[base + w] &= ~(np.int64(1) << (i & 63))
+                bq[dmin] -= 1
+                nbk -= 1
+            else:
+                k = hk[0]
+                i = hi[0]
+                size -= 1
+                if size > 0:
+                    hk[0] = hk[size]
+                    hi[0] = hi[size]
+                    _sift_down(hk, hi, 0, size)
             if k > hwk or (k == hwk and i > hwi):
                 hwk = k
                 hwi = i
@@ -263,8 +321,17 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
                 f ^= _DIRTY
                 if cur > k:  # re-push; dirty implies not _FAILED
                     if cur <= max_dev2:
-                        _push(hk, hi, size, cur, i)
-                        size += 1
+                        d = _bucket(cur, nb)
+                        if d >= 0:
+                            w = i >> 6
+                            bits[d * nw + w] |= np.int64(1) << (i & 63)
+                            bq[d] += 1
+                            bq[nb + d] = min(bq[nb + d], w)
+                            dmin = min(dmin, d)
+                            nbk += 1
+                        else:
+                            _push(hk, hi, size, cur, i)
+                            size += 1
                     else:  # would be skipped unless its inputs change again
                         f ^= _INHEAP
                     fl[i] = f
@@ -338,8 +405,17 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
                     kj = imp[j]
                     if kj > hwk or (kj == hwk and j > hwi):  # not passed yet
                         if (f & _DIRTY) != 0 or kj <= max_dev2:
-                            _push(hk, hi, size, kj, j)
-                            size += 1
+                            d = _bucket(kj, nb)
+                            if d >= 0:
+                                w = j >> 6
+                                bits[d * nw + w] |= np.int64(1) << (j & 63)
+                                bq[d] += 1
+                                bq[nb + d] = min(bq[nb + d], w)
+                                dmin = min(dmin, d)
+                                nbk += 1
+                            else:
+                                _push(hk, hi, size, kj, j)
+                                size += 1
                             f |= _INHEAP
                     else:
                         f |= _POPPED
@@ -382,6 +458,7 @@ def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
     n_all = coords.shape[0]
     max_res2 = max_resolution * max_resolution
     max_dev2 = max_deviation * max_deviation
+    nb = max_deviation + 1 if max_deviation < _MAX_BUCKETS else 0
     # chunks of consecutive rings with about equal vertex counts
     n_chunks = min(n_rings, 64)
     bounds = np.zeros(n_chunks + 1, np.int64)
@@ -411,6 +488,8 @@ def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
         hk = np.empty(max_len, np.int64)
         hi = np.empty(max_len, np.int64)
         tq = np.empty(12, np.int64)
+        bits = np.empty(nb * ((max_len + 63) >> 6), np.int64)
+        bq = np.empty(2 * nb, np.int64)
         for rr in range(r0, r1):
             start = ring_offsets[rr]
             n = ring_offsets[rr + 1] - start
@@ -420,7 +499,8 @@ def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
                 if has_w:
                     pw[k] = widths[start + k]
             m = _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2,
-                              max_area_deviation, prv, nxt, fl, imp, hk, hi, tq)
+                              max_area_deviation, prv, nxt, fl, imp, hk, hi, tq,
+                              bits, bq, nb)
             for k in range(m):
                 buf[start + k, 0] = px[k]
                 buf[start + k, 1] = py[k]
