@@ -140,6 +140,33 @@ def test_noisy_rings_match_reference(closed):
     assert _rings_of(out, new_offs) == want
 
 
+@pytest.mark.parametrize("closed", [True, False])
+@pytest.mark.parametrize("dev", [0, 3, 25, 64, 65, 300])
+def test_large_noisy_rings_match_reference(closed, dev):
+    # long rings (several bitmap words per bucket), the bucket-queue boundary
+    # (max_deviation 64 / 65) and the heap alone (300); widths too
+    rng = np.random.default_rng(1000 + dev)
+    rings = [_noisy_ring(rng, int(rng.integers(200, 1300)),
+                         int(rng.integers(2_000, 60_000)), int(rng.integers(5, 80)))
+             for _ in range(4)]
+    coords, offs = _ragged([r.tolist() for r in rings])
+    out, new_offs = simplify_rings(coords, offs, closed, 400, dev, 50000)
+    want = [ref.simplify(r.tolist(), closed=closed, max_resolution=400,
+                         max_deviation=dev) for r in rings]
+    assert _rings_of(out, new_offs) == want
+    widths = rng.integers(380, 420, len(coords)).astype(np.int64)
+    out, out_w, new_offs = simplify_rings_w(coords, widths, offs, closed, 400, dev,
+                                            2000)
+    got = [[[*xy, w] for xy, w in zip(out[a:b].tolist(), out_w[a:b].tolist(),
+                                       strict=True)]
+           for a, b in zip(new_offs[:-1], new_offs[1:], strict=True)]
+    want = [ref.simplify(r.tolist(), closed=closed, max_resolution=400,
+                         max_deviation=dev, max_area_deviation=2000,
+                         widths=widths[offs[k]:offs[k + 1]].tolist())
+            for k, r in enumerate(rings)]
+    assert got == want
+
+
 def test_widths_change_the_result_where_area_deviation_is_large():
     # spec example: A=(0,0,w400) B=(1000,0,w600) C=(3000,0,w600): 134000 > 50000
     assert ref.area_deviation((0, 0, 400), (1000, 0, 600), (3000, 0, 600)) == 134000
