@@ -12,6 +12,10 @@ one removes nothing, size guards that use the ORIGINAL vertex count, and the
 replacement of a short edge by the intersection of its neighbouring edges.
 CuraEngine walks a ``to_delete`` array to find the nearest kept neighbours; here a
 doubly linked list over the kept vertices gives the same neighbours in O(1).
+The removals happen in exactly CuraEngine's order, with much less work: pops that
+cannot change anything are skipped, importances are recomputed only where their
+inputs changed, and the queue is a bucket queue for the usual keys (see
+``_simplify_one``).
 
 Preconditions (the caller checks them): |coords| < 2**30; ring_offsets starts at
 0, never decreases and ends at len(coords); 0 <= thresholds < 2**31; widths, where
@@ -36,7 +40,9 @@ INT64_MIN = np.iinfo(np.int64).min
 MIN_RES2 = 25  # CuraEngine's min_resolution (5 µm), squared
 
 _OPTS = {"cache": True, "nogil": True}
-_INL = {"cache": True, "nogil": True, "inline": "always"}  # hot helpers
+# hot helpers; helpers called in loops take scalars only (inlined array
+# arguments cost an atomic reference count update per array and call)
+_INL = {"cache": True, "nogil": True, "inline": "always"}
 _W1 = types.int64[::1]  # writable work arrays
 # keys d*d, 0 <= d < nb, go to buckets (one bitmap over the ring's vertex
 # indices each) instead of the heap when max_deviation < _MAX_BUCKETS
@@ -205,10 +211,10 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
       holds it; if the mark has passed it, the original popped it already;
     * importances are recomputed only where their inputs changed (``_DIRTY``),
       which gives the value CuraEngine recomputes at every pop;
-    * a pass whose heap starts empty removes nothing: the loop ends.
-
-    Helpers called here take scalars only: inlined helpers taking arrays cost
-    an atomic reference count update per array and call.
+    * a stale entry (k, i) whose importance dropped to cur < k would be
+      re-pushed as the smallest entry and popped next: it is handled at once;
+    * a pass whose queue starts empty removes nothing: the loop ends.
+    (In this description "heap" means the whole priority queue.)
     """
     min_size = 3 if closed else 2
     if n < min_size:
