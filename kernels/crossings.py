@@ -139,3 +139,25 @@ def face_segments(faces, face_edges, vert_layer, edge_base, face_offsets, twin):
             k += 1
     pair_open_ends(seg_from, seg_to, open_in, open_out, nxt, has_prev)
     return seg_from, seg_to, seg_layer, nxt, has_prev
+
+
+@njit(I64_1D_OUT(I64_1D, I64_2D), cache=True, nogil=True)
+def range_offsets(vert_layer, elements):
+    """Offsets of the ragged (element, plane) ranges of edges or faces.
+
+    Element ``i`` (a row of vertex ids) meets the planes
+    ``min(vert_layer[row]) <= k < max(vert_layer[row])``; returns the cumulative
+    sum of the range lengths with a leading 0.
+    """
+    n = elements.shape[0]
+    out = np.empty(n + 1, dtype=np.int64)
+    out[0] = 0
+    for i in range(n):
+        lo = vert_layer[elements[i, 0]]
+        hi = lo
+        for j in range(1, elements.shape[1]):
+            x = vert_layer[elements[i, j]]
+            lo = min(lo, x)
+            hi = max(hi, x)
+        out[i + 1] = out[i] + hi - lo
+    return out

@@ -1,122 +1,162 @@
 """Kernels deriving the edge topology of a triangle mesh."""
 
 import numpy as np
-from numba import njit, types
+from numba import njit, prange, types
 
-from ._types import I64, I64_1D_OUT, I64_2D, I64_2D_OUT
+from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 
 _SMALL_BUCKET = 32
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _count_half_edge(e, h, edge_count, edge_first, edge_second):
-    if edge_count[e] == 0:
-        edge_first[e] = h
-    elif edge_count[e] == 1:
-        edge_second[e] = h
-    edge_count[e] += 1
+def _ends(faces, h):
+    """(start, end) vertex of half-edge ``h``."""
+    f = h // 3
+    j = h - 3 * f
+    return faces[f, j], faces[f, (j + 1) % 3]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _other(faces, h, v):
+    """The vertex of half-edge ``h`` that is not ``v``."""
+    a, b = _ends(faces, h)
+    return b if a == v else a
+
+
+@njit(types.Tuple((I64_1D_OUT, I64_1D_OUT))(I64_2D, I64), cache=True, nogil=True)
+def _buckets(faces, n_vertices):
+    """Half-edges bucketed by their smaller vertex (counting sort, stable)."""
+    n_half = 3 * faces.shape[0]
+    offsets = np.zeros(n_vertices + 1, dtype=np.int64)
+    for h in range(n_half):
+        a, b = _ends(faces, h)
+        offsets[min(a, b) + 1] += 1
+    for v in range(n_vertices):
+        offsets[v + 1] += offsets[v]
+    fill = offsets[:-1].copy()
+    items = np.empty(n_half, dtype=np.int64)
+    for h in range(n_half):
+        a, b = _ends(faces, h)
+        v = min(a, b)
+        items[fill[v]] = h
+        fill[v] += 1
+    return offsets, items
+
+
+@njit(
+    types.int64(I64_2D, I64_1D, I64, I64, I64_1D, types.int64[::1], types.int64[::1],
+                types.int64[:, ::1], types.int64[::1], types.boolean),
+    cache=True, nogil=True,
+)
+def _bucket_edges(faces, items, v, e0, offsets, out_edge, out_twin, out_verts,
+                  scratch, write):
+    """Group the half-edges of vertex ``v``'s bucket into edges.
+
+    Returns the number of edges. With ``write``, edge ids start at ``e0`` and
+    ``out_edge``, ``out_twin`` and ``out_verts`` are filled. Small buckets are
+    scanned pairwise; large ones (non-manifold fans) are sorted first, so no bucket
+    costs more than O(d log d) beyond 32 half-edges.
+    """
+    start = offsets[v]
+    stop = offsets[v + 1]
+    d = stop - start
+    if d == 0:
+        return 0
+    order = scratch[:d]
+    key = scratch[d : 2 * d]
+    for i in range(d):
+        order[i] = items[start + i]
+        key[i] = _other(faces, order[i], v)
+    if d > _SMALL_BUCKET:
+        perm = np.argsort(key, kind="mergesort")
+        sorted_h = order[perm]
+        sorted_k = key[perm]
+        order[:] = sorted_h
+        key[:] = sorted_k
+    n_edges = 0
+    for i in range(d):
+        h = order[i]
+        if h < 0:  # taken by an earlier edge of this bucket
+            continue
+        w = key[i]
+        second = -1
+        count = 1
+        if write:
+            out_edge[h] = e0 + n_edges
+        for i2 in range(i + 1, d):
+            if key[i2] != w:
+                if d > _SMALL_BUCKET:
+                    break  # sorted: the run of w has ended
+                continue
+            h2 = order[i2]
+            if h2 < 0:
+                continue
+            count += 1
+            if count == 2:
+                second = h2
+            if write:
+                out_edge[h2] = e0 + n_edges
+            order[i2] = -1
+        if write:
+            out_verts[e0 + n_edges, 0] = v
+            out_verts[e0 + n_edges, 1] = w
+            if count == 2 and _ends(faces, h)[0] != _ends(faces, second)[0]:
+                out_twin[h] = second
+                out_twin[second] = h
+        n_edges += 1
+    return n_edges
 
 
 @njit(
     types.Tuple((I64_2D_OUT, I64_2D_OUT, I64_1D_OUT))(I64_2D, I64),
-    cache=True, nogil=True,
+    cache=True, nogil=True, parallel=True,
 )
 def edge_topology(faces, n_vertices):
     """Number the undirected edges of a triangle mesh.
 
     Half-edge ``j`` of face ``f`` runs from ``faces[f, j]`` to
-    ``faces[f, (j + 1) % 3]``.
-    Returns ``face_edges`` (F, 3), the undirected edge id of every half-edge, and
-    ``edge_vertices`` (E, 2), the two vertex ids of each edge (smaller first). Every
-    half-edge with the same pair of vertices gets the same id, however many faces
-    share it (non-manifold edges included). Edge ids follow the smaller vertex id,
-    then first appearance. The third result, ``twin`` (3F,), gives for half-edge
-    ``3 * f + j`` the opposite half-edge of the same edge where the edge has exactly
-    two half-edges running in opposite directions (a closed, consistently wound
-    edge), and -1 elsewhere (open, non-manifold or inconsistently wound edges).
+    ``faces[f, (j + 1) % 3]``. Returns ``face_edges`` (F, 3), the undirected edge
+    id of every half-edge, and ``edge_vertices`` (E, 2), the two vertex ids of each
+    edge (smaller first). Every half-edge with the same pair of vertices gets the
+    same id, however many faces share it (non-manifold edges included). Edge ids
+    follow the smaller vertex id, then first appearance (by the other vertex id in
+    buckets of more than 32 half-edges). The third result, ``twin`` (3F,), gives for
+    half-edge ``3 * f + j`` the opposite half-edge of the same edge where the edge
+    has exactly two half-edges running in opposite directions (a closed,
+    consistently wound edge), and -1 elsewhere (open, non-manifold or
+    inconsistently wound edges).
+
     Linear time: half-edges are bucketed by their smaller vertex (counting sort)
-    and matched inside each bucket.
+    and matched inside each bucket, in two parallel passes (count, then fill).
 
     Preconditions (the caller checks them): 0 <= faces < n_vertices; no face repeats
     a vertex index.
     """
-    n_faces = faces.shape[0]
-    n_half = 3 * n_faces
-    lo_v = np.empty(n_half, dtype=np.int64)
-    hi_v = np.empty(n_half, dtype=np.int64)
-    counts = np.zeros(n_vertices + 1, dtype=np.int64)
-    for f in range(n_faces):
-        for j in range(3):
-            a = faces[f, j]
-            b = faces[f, (j + 1) % 3]
-            h = 3 * f + j
-            if a < b:
-                lo_v[h] = a
-                hi_v[h] = b
-            else:
-                lo_v[h] = b
-                hi_v[h] = a
-            counts[lo_v[h] + 1] += 1
+    n_half = 3 * faces.shape[0]
+    offsets, items = _buckets(faces, n_vertices)
+    max_d = 0
     for v in range(n_vertices):
-        counts[v + 1] += counts[v]
-    fill = counts[:-1].copy()
-    bucket = np.empty(n_half, dtype=np.int64)
-    for h in range(n_half):
-        v = lo_v[h]
-        bucket[fill[v]] = h
-        fill[v] += 1
-
+        max_d = max(max_d, offsets[v + 1] - offsets[v])
     edge_of = np.empty(n_half, dtype=np.int64)
-    edge_count = np.zeros(n_half, dtype=np.int64)
-    edge_first = np.empty(n_half, dtype=np.int64)
-    edge_second = np.empty(n_half, dtype=np.int64)
-    edge_verts = np.empty((n_half, 2), dtype=np.int64)
-    n_edges = 0
-    for v in range(n_vertices):
-        start = counts[v]
-        stop = counts[v + 1]
-        if stop - start <= _SMALL_BUCKET:
-            for i in range(start, stop):
-                h = bucket[i]
-                found = -1
-                for i2 in range(start, i):
-                    h2 = bucket[i2]
-                    if hi_v[h2] == hi_v[h]:
-                        found = edge_of[h2]
-                        break
-                if found < 0:
-                    found = n_edges
-                    edge_verts[n_edges, 0] = v
-                    edge_verts[n_edges, 1] = hi_v[h]
-                    n_edges += 1
-                edge_of[h] = found
-                _count_half_edge(found, h, edge_count, edge_first, edge_second)
-        else:
-            keys = np.empty(stop - start, dtype=np.int64)
-            for i in range(start, stop):
-                keys[i - start] = hi_v[bucket[i]]
-            order = np.argsort(keys, kind="mergesort")
-            prev = -1
-            for i in range(stop - start):
-                h = bucket[start + order[i]]
-                if hi_v[h] != prev:
-                    edge_verts[n_edges, 0] = v
-                    edge_verts[n_edges, 1] = hi_v[h]
-                    n_edges += 1
-                    prev = hi_v[h]
-                edge_of[h] = n_edges - 1
-                _count_half_edge(n_edges - 1, h, edge_count, edge_first, edge_second)
     twin = np.full(n_half, -1, dtype=np.int64)
-    for e in range(n_edges):
-        if edge_count[e] == 2:
-            h1 = edge_first[e]
-            h2 = edge_second[e]
-            # opposite directions: the two half-edges start at different vertices
-            if faces[h1 // 3, h1 % 3] != faces[h2 // 3, h2 % 3]:
-                twin[h1] = h2
-                twin[h2] = h1
-    face_edges = edge_of.reshape((n_faces, 3))
-    return face_edges, edge_verts[:n_edges].copy(), twin
+    no_verts = np.empty((0, 2), dtype=np.int64)
+    per_vertex = np.zeros(n_vertices + 1, dtype=np.int64)
+    n_chunks = 64
+    step = (n_vertices + n_chunks - 1) // n_chunks
+    for c in prange(n_chunks):
+        scratch = np.empty(2 * max_d, dtype=np.int64)
+        for v in range(c * step, min(n_vertices, (c + 1) * step)):
+            per_vertex[v + 1] = _bucket_edges(faces, items, v, 0, offsets, edge_of,
+                                              twin, no_verts, scratch, False)
+    for v in range(n_vertices):
+        per_vertex[v + 1] += per_vertex[v]
+    edge_verts = np.empty((per_vertex[n_vertices], 2), dtype=np.int64)
+    for c in prange(n_chunks):
+        scratch = np.empty(2 * max_d, dtype=np.int64)
+        for v in range(c * step, min(n_vertices, (c + 1) * step)):
+            _bucket_edges(faces, items, v, per_vertex[v], offsets, edge_of, twin,
+                          edge_verts, scratch, True)
+    return edge_of.reshape((faces.shape[0], 3)), edge_verts, twin
 
 
 @njit(I64_1D_OUT(I64_2D, I64), cache=True, nogil=True)

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from kernels.crossings import crossing_points, face_segments
+from kernels.crossings import crossing_points, face_segments, range_offsets
 from kernels.loops import link_segments
 from kernels.rings import group_rings
 from kernels.topology import edge_topology
@@ -28,15 +28,6 @@ def _layer_of_vertices(
     vertices have layers ``l`` meets planes ``min(l) <= k < max(l)``.
     """
     return np.searchsorted(z, vertices[:, 2], side="left").astype(np.int64)
-
-
-def _range_offsets(layers: NDArray[np.int64]) -> NDArray[np.int64]:
-    """Offsets of the ragged (element, plane) ranges ``min(row) <= k < max(row)``."""
-    cols = [layers[:, j] for j in range(layers.shape[1])]
-    counts = np.maximum.reduce(cols) - np.minimum.reduce(cols)
-    offsets = np.zeros(layers.shape[0] + 1, dtype=np.int64)
-    np.cumsum(counts, out=offsets[1:])
-    return offsets
 
 
 def _check_mesh(
@@ -117,11 +108,12 @@ def slice_contours(
 
     face_edges, edge_vertices, twin = edge_topology(faces, vertices.shape[0])
     vert_layer = _layer_of_vertices(vertices, zs)
-    edge_layers = vert_layer[edge_vertices]
-    edge_offsets = _range_offsets(edge_layers)
+    edge_offsets = range_offsets(vert_layer, edge_vertices)
     points = crossing_points(vertices, edge_vertices, vert_layer, edge_offsets, zs)
-    edge_base = edge_offsets[:-1] - np.minimum(edge_layers[:, 0], edge_layers[:, 1])
-    face_offsets = _range_offsets(vert_layer[faces])
+    edge_base = edge_offsets[:-1] - np.minimum(
+        vert_layer[edge_vertices[:, 0]], vert_layer[edge_vertices[:, 1]]
+    )
+    face_offsets = range_offsets(vert_layer, faces)
     seg_from, seg_to, seg_layer, nxt, has_prev = face_segments(
         faces, face_edges, vert_layer, edge_base, face_offsets, twin
     )
