@@ -4,6 +4,7 @@ Triangle meshes in, per-layer int64-micron polygons out, following CuraEngine's
 design (layer schedules, simplification, layer parts) but working on whole arrays.
 """
 
+from vecslice.demo import demo_mesh
 from vecslice.errors import (
     InputTypeError,
     InputValueError,
@@ -51,6 +52,7 @@ __all__ = [
     "__version__",
     "check_mesh",
     "clean_loops",
+    "demo_mesh",
     "layer_heights",
     "load_mesh",
     "load_sliced",
