@@ -175,6 +175,19 @@ _POPPED = 16  # its entry of this pass is gone (popped, or passed over)
 # of the heap because popping it would change nothing (see _simplify_one).
 
 
+@njit(B1(I64, I64, I64, I64, I64, I64), **_OPTS, inline="always")
+def _tiny(x0, y0, x1, y1, x2, y2):
+    """CuraEngine's small-path test for a path of exactly the minimum size.
+
+    True when the longest squared side among (p1 - p0, p2 - p0, p2 - p1) is below
+    25 µm².
+    """
+    d1 = (x1 - x0) * (x1 - x0) + (y1 - y0) * (y1 - y0)
+    d2 = (x2 - x0) * (x2 - x0) + (y2 - y0) * (y2 - y0)
+    d3 = (x2 - x1) * (x2 - x1) + (y2 - y1) * (y2 - y1)
+    return max(max(d1, d2), d3) < MIN_RES2
+
+
 @njit(
     I64(_W1, _W1, _W1, B1, I64, B1, I64, I64, I64, _W1, _W1, _W1, _W1, _W1,
         _W1, _W1, _W1, _W1, I64),
@@ -220,14 +233,7 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
     if n < min_size:
         return 0
     if n == min_size:
-        d1 = (px[1] - px[0]) * (px[1] - px[0]) + (py[1] - py[0]) * (py[1] - py[0])
-        d2 = (px[n - 1] - px[0]) * (px[n - 1] - px[0]) + (
-            py[n - 1] - py[0]) * (py[n - 1] - py[0])
-        d3 = (px[n - 1] - px[1]) * (px[n - 1] - px[1]) + (
-            py[n - 1] - py[1]) * (py[n - 1] - py[1])
-        if max(max(d1, d2), d3) < MIN_RES2:
-            return 0
-        return n
+        return 0 if _tiny(px[0], py[0], px[1], py[1], px[n - 1], py[n - 1]) else n
     for i in range(n):
         prv[i] = i - 1
         nxt[i] = i + 1
@@ -435,14 +441,8 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
             m += 1
     if m < min_size:
         return 0
-    if m == min_size:
-        d1 = (px[1] - px[0]) * (px[1] - px[0]) + (py[1] - py[0]) * (py[1] - py[0])
-        d2 = (px[m - 1] - px[0]) * (px[m - 1] - px[0]) + (
-            py[m - 1] - py[0]) * (py[m - 1] - py[0])
-        d3 = (px[m - 1] - px[1]) * (px[m - 1] - px[1]) + (
-            py[m - 1] - py[1]) * (py[m - 1] - py[1])
-        if max(max(d1, d2), d3) < MIN_RES2:
-            return 0
+    if m == min_size and _tiny(px[0], py[0], px[1], py[1], px[m - 1], py[m - 1]):
+        return 0
     return m
 
 
