@@ -7,12 +7,12 @@ import pytest
 from numba.core.caching import NullCache
 from numba.core.registry import CPUDispatcher
 
-import kernels
+import vecslice._kernels as kernels
 
 
 def _kernels():
     for info in pkgutil.iter_modules(kernels.__path__):
-        module = importlib.import_module(f"kernels.{info.name}")
+        module = importlib.import_module(f"vecslice._kernels.{info.name}")
         for name, obj in vars(module).items():
             if isinstance(obj, CPUDispatcher) and obj.__module__ == module.__name__:
                 yield pytest.param(obj, id=f"{info.name}.{name}")
@@ -32,4 +32,4 @@ def test_kernel_is_cached_nogil_and_without_fastmath(kernel):
 )
 def test_public_kernels_have_explicit_signatures(kernel):
     # inline helpers are compiled into their callers; every other kernel is eager
-    assert kernel.signatures, "declare an explicit signature from kernels._types"
+    assert kernel.signatures, "declare an explicit signature from _types"

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kernels.simplify import ring_perimeters
+from vecslice._kernels.simplify import ring_perimeters
 from vecslice._validate import check_int
 from vecslice.errors import InputTypeError
 from vecslice.parts import layer_xor_areas

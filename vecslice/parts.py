@@ -17,7 +17,7 @@ import manifold3d
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from kernels.rings import ring_area2
+from vecslice._kernels.rings import ring_area2
 from vecslice._validate import as_coords, as_offsets, check_option
 from vecslice.errors import InputTypeError, InputValueError
 from vecslice.paths import LayerPaths

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from kernels.rings import ring_area2
+from vecslice._kernels.rings import ring_area2
 from vecslice._validate import as_coords, as_offsets
 
 __all__ = ["LayerPaths", "Paths"]

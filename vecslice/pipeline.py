@@ -14,7 +14,7 @@ from typing import Any, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from kernels.simplify import (
+from vecslice._kernels.simplify import (
     remove_degenerate_vertices,
     ring_perimeters,
     simplify_rings,

@@ -13,11 +13,11 @@ from typing import overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from kernels.simplify import (
+from vecslice._kernels.simplify import (
     remove_degenerate_vertices as _remove_degenerate_kernel,
 )
-from kernels.simplify import ring_perimeters as _ring_perimeters_kernel
-from kernels.simplify import simplify_rings, simplify_rings_w
+from vecslice._kernels.simplify import ring_perimeters as _ring_perimeters_kernel
+from vecslice._kernels.simplify import simplify_rings, simplify_rings_w
 from vecslice._validate import as_coords, as_int_array, check_int
 from vecslice.errors import InputTypeError, InputValueError, LayoutError
 from vecslice.paths import Paths

@@ -7,10 +7,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from kernels.crossings import crossing_points, face_segments, range_offsets
-from kernels.loops import link_segments
-from kernels.rings import group_rings
-from kernels.topology import edge_topology
+from vecslice._kernels.crossings import crossing_points, face_segments, range_offsets
+from vecslice._kernels.loops import link_segments
+from vecslice._kernels.rings import group_rings
+from vecslice._kernels.topology import edge_topology
 from vecslice._validate import as_int_array, check_coord_range
 from vecslice.errors import InputTypeError
 from vecslice.paths import LayerPaths

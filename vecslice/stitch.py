@@ -7,7 +7,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from kernels.stitch import stitch_chains
+from vecslice._kernels.stitch import stitch_chains
 from vecslice._validate import check_int
 from vecslice.errors import InputTypeError
 from vecslice.paths import LayerPaths

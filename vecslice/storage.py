@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from kernels.rings import ring_area2
+from vecslice._kernels.rings import ring_area2
 from vecslice._validate import as_coords, as_int_array, as_offsets
 from vecslice.errors import InputValueError, LayoutError, StorageFileError
 from vecslice.paths import LayerPaths

@@ -3,9 +3,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import reference
-from kernels.crossings import crossing_points, face_segments
-from kernels.topology import edge_topology
 from strategies import closed_meshes
+from vecslice._kernels.crossings import crossing_points, face_segments
+from vecslice._kernels.topology import edge_topology
 
 coord = st.integers(-(2**30) + 1, 2**30 - 1)
 

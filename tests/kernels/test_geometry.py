@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 
 import reference_simplify as ref
 from conftest import load_testdata
-from kernels.geometry import (
+from vecslice._kernels.geometry import (
     dist2_from_line,
     dist2_from_segment,
     dist_from_line,

@@ -3,7 +3,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import reference
-from kernels.loops import link_segments
+from vecslice._kernels.loops import link_segments
 
 
 def _link(frm, to, layer, n_c):

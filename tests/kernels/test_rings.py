@@ -3,7 +3,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import reference
-from kernels.rings import group_rings, ring_area2
+from vecslice._kernels.rings import group_rings, ring_area2
 
 coord = st.integers(-(2**30) + 1, 2**30 - 1)
 

@@ -5,7 +5,7 @@ from hypothesis import strategies as st
 
 import reference_simplify as ref
 from conftest import load_testdata
-from kernels.simplify import (
+from vecslice._kernels.simplify import (
     remove_degenerate_vertices,
     ring_perimeters,
     simplify_rings,

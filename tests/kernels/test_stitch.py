@@ -4,7 +4,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import reference_stitch
-from kernels.stitch import stitch_chains
+from vecslice._kernels.stitch import stitch_chains
 
 
 def _pack(layers):

@@ -4,7 +4,7 @@ import trimesh
 from hypothesis import given
 from hypothesis import strategies as st
 
-from kernels.topology import edge_face_counts, edge_topology
+from vecslice._kernels.topology import edge_face_counts, edge_topology
 
 
 def _reference(faces):

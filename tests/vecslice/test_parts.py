@@ -9,8 +9,8 @@ import trimesh
 from hypothesis import given
 from hypothesis import strategies as st
 
-from kernels.rings import ring_area2
 from vecslice import InputTypeError, LayerPaths, SettingsError
+from vecslice._kernels.rings import ring_area2
 from vecslice.parts import LayerParts, apply_slicing_tolerance, make_parts, to_shapely
 
 
