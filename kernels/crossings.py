@@ -6,8 +6,9 @@ arrays in one pass, each edge or face writing its own slice (count, scan, fill).
 """
 
 import numpy as np
-from numba import njit, prange, types
+from numba import prange, types
 
+from ._jit import kernel
 from ._types import B1_1D_OUT, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 from .loops import pair_open_ends
 
@@ -19,7 +20,7 @@ DOWN_EDGE = (0, 0, 1, 1, 2, 0, 2, 0)
 UP_EDGE = (0, 2, 0, 2, 1, 1, 0, 0)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _round_div(num, den):
     """Num / den rounded to nearest, ties away from zero (den > 0; Python floor //)."""
     q = num // den
@@ -29,9 +30,8 @@ def _round_div(num, den):
     return q
 
 
-@njit(
-    I64_2D_OUT(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D),
-    cache=True, nogil=True, parallel=True,
+@kernel(
+    I64_2D_OUT(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D), parallel=True,
 )
 def crossing_points(vertices, edge_vertices, vert_layer, edge_offsets, z):
     """The crossing point of every edge with every plane it crosses.
@@ -71,11 +71,10 @@ def crossing_points(vertices, edge_vertices, vert_layer, edge_offsets, z):
     return out
 
 
-@njit(
+@kernel(
     types.Tuple((I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, B1_1D_OUT))(
         I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D
-    ),
-    cache=True, nogil=True, parallel=True,
+    ), parallel=True,
 )
 def face_segments(faces, face_edges, vert_layer, edge_base, face_offsets, twin):
     """One directed segment per (face, plane) pair, and its successor.
@@ -141,7 +140,7 @@ def face_segments(faces, face_edges, vert_layer, edge_base, face_offsets, twin):
     return seg_from, seg_to, seg_layer, nxt, has_prev
 
 
-@njit(I64_1D_OUT(I64_1D, I64_2D), cache=True, nogil=True)
+@kernel(I64_1D_OUT(I64_1D, I64_2D))
 def range_offsets(vert_layer, elements):
     """Offsets of the ragged (element, plane) ranges of edges or faces.
 

@@ -16,8 +16,9 @@ Conventions reproduced exactly (see ``spec/SIMPLIFY.md``):
 """
 
 import numpy as np
-from numba import njit, types
+from numba import types
 
+from ._jit import kernel
 from ._types import B1, I64
 
 INT64_MIN = np.iinfo(np.int64).min
@@ -26,10 +27,9 @@ INT32_MAX = 2147483647
 # |float32 product| beyond this cannot give an in-range intersection (|a| < 2**31)
 _F32_LIMIT = np.float32(2.0**40)
 
-_OPTS = {"cache": True, "nogil": True}
 
 
-@njit(I64(I64, I64), **_OPTS)
+@kernel(I64(I64, I64))
 def tdiv(a, b):
     """``a / b`` truncated toward zero (C integer division). Precondition: b != 0."""
     q = a // b
@@ -38,13 +38,13 @@ def tdiv(a, b):
     return q
 
 
-@njit(I64(I64, I64), **_OPTS)
+@kernel(I64(I64, I64))
 def vsize2(x, y):
     """Squared length ``x*x + y*y`` (int64, wrapping)."""
     return x * x + y * y
 
 
-@njit(I64(I64, I64), **_OPTS)
+@kernel(I64(I64, I64))
 def vsize(x, y):
     """Length rounded half to even: ``llrint(sqrt(double(x*x + y*y)))``."""
     s = x * x + y * y
@@ -53,7 +53,7 @@ def vsize(x, y):
     return np.int64(np.rint(np.sqrt(np.float64(s))))
 
 
-@njit(I64(I64, I64, I64, I64, I64, I64), **_OPTS)
+@kernel(I64(I64, I64, I64, I64, I64, I64))
 def dist_from_line(px, py, ax, ay, bx, by):
     """Distance of p to the infinite line a-b, truncated (CuraEngine getDistFromLine).
 
@@ -68,14 +68,14 @@ def dist_from_line(px, py, ax, ay, bx, by):
     return np.int64(np.float64(area2) / np.float64(ab))
 
 
-@njit(I64(I64, I64, I64, I64, I64, I64), **_OPTS)
+@kernel(I64(I64, I64, I64, I64, I64, I64))
 def dist2_from_line(px, py, ax, ay, bx, by):
     """``dist_from_line(p, a, b) ** 2`` (always a perfect square)."""
     d = dist_from_line(px, py, ax, ay, bx, by)
     return d * d
 
 
-@njit(I64(I64, I64, I64, I64, I64, I64), **_OPTS)
+@kernel(I64(I64, I64, I64, I64, I64, I64))
 def dist2_from_segment(ax, ay, bx, by, cx, cy):
     """Squared distance of **b** to segment a-c, CuraEngine integer projection.
 
@@ -103,8 +103,8 @@ def dist2_from_segment(ax, ay, bx, by, cx, cy):
     return dx * dx + dy * dy
 
 
-@njit(
-    types.Tuple((B1, I64, I64))(I64, I64, I64, I64, I64, I64, I64, I64), **_OPTS
+@kernel(
+    types.Tuple((B1, I64, I64))(I64, I64, I64, I64, I64, I64, I64, I64)
 )
 def line_line_intersection(ax, ay, bx, by, cx, cy, dx, dy):
     """Intersection of the infinite lines a-b and c-d in float32 arithmetic.

@@ -1,8 +1,9 @@
 """Kernels linking (face, layer) segments into loops and open chains."""
 
 import numpy as np
-from numba import njit, types
+from numba import types
 
+from ._jit import kernel
 from ._types import B1_1D, B1_1D_W, I64_1D, I64_1D_OUT, I64_1D_W
 
 _LINK_OUT = types.Tuple(
@@ -10,9 +11,8 @@ _LINK_OUT = types.Tuple(
 )
 
 
-@njit(
+@kernel(
     types.void(I64_1D, I64_1D, B1_1D, B1_1D, I64_1D_W, B1_1D_W),
-    cache=True, nogil=True,
 )
 def pair_open_ends(seg_from, seg_to, open_in, open_out, out_next, out_has_prev):
     """Join segments at crossings that topology alone does not pair.
@@ -51,7 +51,7 @@ def pair_open_ends(seg_from, seg_to, open_in, open_out, out_next, out_has_prev):
             o += 1
 
 
-@njit(_LINK_OUT(I64_1D, B1_1D, I64_1D, I64_1D, I64_1D), cache=True, nogil=True)
+@kernel(_LINK_OUT(I64_1D, B1_1D, I64_1D, I64_1D, I64_1D))
 def link_segments(nxt, has_prev, seg_from, seg_to, seg_layer):
     """Link directed segments into closed loops and open chains.
 

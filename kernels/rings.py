@@ -1,12 +1,13 @@
 """Kernels over rings of a ragged (coords, ring_offsets) array."""
 
 import numpy as np
-from numba import njit, types
+from numba import types
 
+from ._jit import kernel
 from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 
 
-@njit(I64_1D_OUT(I64_2D, I64_1D), cache=True, nogil=True)
+@kernel(I64_1D_OUT(I64_2D, I64_1D))
 def ring_area2(coords, ring_offsets):
     """Twice the signed area of each ring (exact; CCW > 0).
 
@@ -28,11 +29,10 @@ def ring_area2(coords, ring_offsets):
     return out
 
 
-@njit(
+@kernel(
     types.Tuple((I64_2D_OUT, I64_1D_OUT, I64_1D_OUT))(
         I64_2D, I64_1D, I64_1D, I64_1D, I64
     ),
-    cache=True, nogil=True,
 )
 def group_rings(points, vertex_ids, ring_offsets, ring_key, n_keys):
     """Gather ring vertices from ``points`` and group the rings by key (stable).

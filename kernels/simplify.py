@@ -23,9 +23,10 @@ given, satisfy |w| < 2**30.
 """
 
 import numpy as np
-from numba import njit, prange, types
+from numba import prange, types
 from numba.cpython.unsafe.numbers import trailing_zeros
 
+from ._jit import kernel
 from ._types import B1, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 from .geometry import (
     dist2_from_line,
@@ -39,17 +40,15 @@ INT64_MAX = np.iinfo(np.int64).max
 INT64_MIN = np.iinfo(np.int64).min
 MIN_RES2 = 25  # CuraEngine's min_resolution (5 µm), squared
 
-_OPTS = {"cache": True, "nogil": True}
-# hot helpers; helpers called in loops take scalars only (inlined array
-# arguments cost an atomic reference count update per array and call)
-_INL = {"cache": True, "nogil": True, "inline": "always"}
+# hot helpers are inlined (inline="always") and take scalars only: inlined array
+# arguments cost an atomic reference count update per array and call
 _W1 = types.int64[::1]  # writable work arrays
 # keys d*d, 0 <= d < nb, go to buckets (one bitmap over the ring's vertex
 # indices each) instead of the heap when max_deviation < _MAX_BUCKETS
 _MAX_BUCKETS = 65
 
 
-@njit(I64(I64, I64, I64, I64, I64, I64, I64, I64, I64), **_INL)
+@kernel(I64(I64, I64, I64, I64, I64, I64, I64, I64, I64), inline="always")
 def _area_deviation(bx, by, bw, vx, vy, vw, ax, ay, aw):
     """Extrusion-area deviation of removing vertex v between b and a."""
     ab = vsize(vx - bx, vy - by)
@@ -68,8 +67,8 @@ def _area_deviation(bx, by, bw, vx, vy, vw, ax, ay, aw):
     return wd * ab
 
 
-@njit(
-    I64(B1, I64, I64, I64, I64, I64, I64, I64, I64, I64, I64, I64), **_INL
+@kernel(
+    I64(B1, I64, I64, I64, I64, I64, I64, I64, I64, I64, I64, I64), inline="always"
 )
 def _importance(has_w, bx, by, bw, vx, vy, vw, ax, ay, aw, max_res2, max_area):
     """CuraEngine's importance of vertex v between kept neighbours b and a.
@@ -88,9 +87,9 @@ def _importance(has_w, bx, by, bw, vx, vy, vw, ax, ay, aw, max_res2, max_area):
     return d2
 
 
-@njit(
+@kernel(
     types.Tuple((B1, I64, I64))(I64, I64, I64, I64, I64, I64, I64, I64, I64),
-    **_INL,
+    inline="always",
 )
 def _collapse(p0x, p0y, p1x, p1y, p2x, p2y, p3x, p3y, max_dev2):
     """Replace the short edge p1-p2 by the intersection X of lines p0-p1, p2-p3.
@@ -104,7 +103,7 @@ def _collapse(p0x, p0y, p1x, p1y, p2x, p2y, p3x, p3y, max_dev2):
     return ok, x, y
 
 
-@njit(types.void(_W1, _W1, I64, I64), **_INL)
+@kernel(types.void(_W1, _W1, I64, I64), inline="always")
 def _sift_down(hk, hi, pos, size):
     """Restore the heap below ``pos``; entries ordered by (key, index).
 
@@ -136,7 +135,7 @@ def _sift_down(hk, hi, pos, size):
     hi[p] = v
 
 
-@njit(types.void(_W1, _W1, I64, I64, I64), **_INL)
+@kernel(types.void(_W1, _W1, I64, I64, I64), inline="always")
 def _push(hk, hi, size, key, idx):
     """Insert (key, idx) into a heap holding ``size`` entries."""
     p = np.uint64(size)
@@ -152,7 +151,7 @@ def _push(hk, hi, size, key, idx):
     hi[p] = idx
 
 
-@njit(I64(I64, I64), **_INL)
+@kernel(I64(I64, I64), inline="always")
 def _bucket(key, nb):
     """Bucket of a queue key: d if key == d*d with 0 <= d < nb, else -1 (heap)."""
     if key < 0 or key >= nb * nb:
@@ -175,7 +174,7 @@ _POPPED = 16  # its entry of this pass is gone (popped, or passed over)
 # of the heap because popping it would change nothing (see _simplify_one).
 
 
-@njit(B1(I64, I64, I64, I64, I64, I64), **_OPTS, inline="always")
+@kernel(B1(I64, I64, I64, I64, I64, I64), inline="always")
 def _tiny(x0, y0, x1, y1, x2, y2):
     """CuraEngine's small-path test for a path of exactly the minimum size.
 
@@ -188,10 +187,9 @@ def _tiny(x0, y0, x1, y1, x2, y2):
     return max(max(d1, d2), d3) < MIN_RES2
 
 
-@njit(
+@kernel(
     I64(_W1, _W1, _W1, B1, I64, B1, I64, I64, I64, _W1, _W1, _W1, _W1, _W1,
-        _W1, _W1, _W1, _W1, I64),
-    **_OPTS,
+        _W1, _W1, _W1, _W1, I64)
 )
 def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
                   prv, nxt, fl, imp, hk, hi, tq, bits, bq, nb):
@@ -446,11 +444,10 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
     return m
 
 
-@njit(
+@kernel(
     types.Tuple((I64_2D_OUT, I64_1D_OUT, I64_1D_OUT))(
         I64_2D, I64_1D, I64_1D, B1, B1, I64, I64, I64
-    ),
-    cache=True, nogil=True, parallel=True,
+    ), parallel=True,
 )
 def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
                    max_deviation, max_area_deviation):
@@ -531,9 +528,8 @@ def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
     return out, out_w, new_offsets
 
 
-@njit(
-    types.Tuple((I64_2D_OUT, I64_1D_OUT))(I64_2D, I64_1D, B1, I64, I64, I64),
-    **_OPTS,
+@kernel(
+    types.Tuple((I64_2D_OUT, I64_1D_OUT))(I64_2D, I64_1D, B1, I64, I64, I64)
 )
 def simplify_rings(coords, ring_offsets, closed, max_resolution, max_deviation,
                    max_area_deviation):
@@ -549,11 +545,10 @@ def simplify_rings(coords, ring_offsets, closed, max_resolution, max_deviation,
     return out, offs
 
 
-@njit(
+@kernel(
     types.Tuple((I64_2D_OUT, I64_1D_OUT, I64_1D_OUT))(
         I64_2D, I64_1D, I64_1D, B1, I64, I64, I64
-    ),
-    **_OPTS,
+    )
 )
 def simplify_rings_w(coords, widths, ring_offsets, closed, max_resolution,
                      max_deviation, max_area_deviation):
@@ -567,7 +562,7 @@ def simplify_rings_w(coords, widths, ring_offsets, closed, max_resolution,
                           max_resolution, max_deviation, max_area_deviation)
 
 
-@njit(I64_1D_OUT(I64_2D, I64_1D), **_OPTS)
+@kernel(I64_1D_OUT(I64_2D, I64_1D))
 def ring_perimeters(coords, ring_offsets):
     """Perimeter of each closed ring as CuraEngine's ``polygonLength``.
 
@@ -592,7 +587,7 @@ def ring_perimeters(coords, ring_offsets):
     return out
 
 
-@njit(B1(I64, I64, I64, I64, I64, I64), **_OPTS)
+@kernel(B1(I64, I64, I64, I64, I64, I64))
 def _reverses(lx, ly, cx, cy, nx, ny):
     """CuraEngine's isDegenerate: dot(now-last, next-now) == -|now-last|*|next-now|."""
     ax = cx - lx
@@ -602,7 +597,7 @@ def _reverses(lx, ly, cx, cy, nx, ny):
     return ax * bx + ay * by == -1 * vsize(ax, ay) * vsize(bx, by)
 
 
-@njit(types.Tuple((I64_2D_OUT, I64_1D_OUT))(I64_2D, I64_1D), **_OPTS)
+@kernel(types.Tuple((I64_2D_OUT, I64_1D_OUT))(I64_2D, I64_1D))
 def remove_degenerate_vertices(coords, ring_offsets):
     """Remove vertices where a closed ring exactly reverses, as CuraEngine does.
 

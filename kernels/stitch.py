@@ -24,8 +24,9 @@ per layer, or similar), else by five stable column sorts. Measured (one core):
 """
 
 import numpy as np
-from numba import njit, types
+from numba import types
 
+from ._jit import kernel
 from ._types import B1, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 
 # columns of the per-chain state table (group fields are valid on roots only)
@@ -58,7 +59,7 @@ _OUT = types.Tuple(
 )
 
 
-@njit(I64(_STATE, I64), cache=True, nogil=True)
+@kernel(I64(_STATE, I64))
 def _find(st, c):
     """Root of chain ``c``'s group, compressing the path."""
     r = c
@@ -71,25 +72,25 @@ def _find(st, c):
     return r
 
 
-@njit(I64(I64_1D, I64, I64), cache=True, nogil=True)
+@kernel(I64(I64_1D, I64, I64))
 def _vertex(ring_offsets, c, side):
     """Row in ``coords`` of chain ``c``'s first (side 0) or last (side 1) vertex."""
     return ring_offsets[c] if side == 0 else ring_offsets[c + 1] - 1
 
 
-@njit(I64(_STATE, I64), cache=True, nogil=True)
+@kernel(I64(_STATE, I64))
 def _head_side(st, g):
     """Side of the head chain exposed at the start of group ``g``."""
     return st[st[g, _HEAD], _FLIP]
 
 
-@njit(I64(_STATE, I64), cache=True, nogil=True)
+@kernel(I64(_STATE, I64))
 def _tail_side(st, g):
     """Side of the tail chain exposed at the end of group ``g``."""
     return 1 - st[st[g, _TAIL], _FLIP]
 
 
-@njit(I64(I64_1D, _STATE, I64, I64), cache=True, nogil=True)
+@kernel(I64(I64_1D, _STATE, I64, I64))
 def _terminus_role(ring_offsets, st, c, side):
     """Role of chain end (c, side): its group's start (0), end (1) or neither (-1).
 
@@ -108,7 +109,7 @@ def _terminus_role(ring_offsets, st, c, side):
     return -1
 
 
-@njit(types.void(_STATE, I64), cache=True, nogil=True)
+@kernel(types.void(_STATE, I64))
 def _reverse(st, g):
     """Reverse group ``g`` in place (walks its chains)."""
     c = st[g, _HEAD]
@@ -123,7 +124,7 @@ def _reverse(st, g):
     st[g, _TAIL] = h
 
 
-@njit(types.void(I64_2D, I64_1D, _STATE, I64, I64), cache=True, nogil=True)
+@kernel(types.void(I64_2D, I64_1D, _STATE, I64, I64))
 def _join(coords, ring_offsets, st, g1, g2):
     """Append group ``g2`` to group ``g1`` (distinct open roots)."""
     t1 = st[g1, _TAIL]
@@ -145,7 +146,7 @@ def _join(coords, ring_offsets, st, g1, g2):
     st[r, _GID] = gid
 
 
-@njit(I64(I64_2D, I64_2D, I64, I64, B1, I64_2D_OUT, B1), cache=True, nogil=True)
+@kernel(I64(I64_2D, I64_2D, I64, I64, B1, I64_2D_OUT, B1))
 def _pairs(term, cells, cell, gap2, allow_reverse, out, fill):
     """Count (or, with ``fill``, write to ``out``) the candidate pairs of termini.
 
@@ -192,7 +193,7 @@ def _pairs(term, cells, cell, gap2, allow_reverse, out, fill):
     return m
 
 
-@njit(I64(I64), cache=True, nogil=True)
+@kernel(I64(I64))
 def _bit_length(v):
     """Bits needed for ``0 <= x <= v`` (v >= 0)."""
     b = 0
@@ -202,7 +203,7 @@ def _bit_length(v):
     return b
 
 
-@njit(I64_1D_OUT(I64_2D_OUT, I64, I64), cache=True, nogil=True)
+@kernel(I64_1D_OUT(I64_2D_OUT, I64, I64))
 def _candidate_order(cand, gap2, id0):
     """Order of the candidates by (gap², reversed, i, j, sub), all ascending.
 
@@ -231,7 +232,7 @@ def _candidate_order(cand, gap2, id0):
     return order
 
 
-@njit(I64(I64_2D, I64_1D, _STATE, I64, I64, I64, B1), cache=True, nogil=True)
+@kernel(I64(I64_2D, I64_1D, _STATE, I64, I64, I64, B1))
 def _stitch_round(coords, ring_offsets, st, c0, c1, max_gap, allow_reverse):
     """One round over chains ``c0:c1`` (one layer); returns the gaps stitched."""
     if max_gap <= 0:
@@ -309,7 +310,7 @@ def _stitch_round(coords, ring_offsets, st, c0, c1, max_gap, allow_reverse):
     return stitched
 
 
-@njit(I64(I64_2D, I64_1D, _STATE, I64, I64_2D_OUT, I64, I64), cache=True, nogil=True)
+@kernel(I64(I64_2D, I64_1D, _STATE, I64, I64_2D_OUT, I64, I64))
 def _emit(coords, ring_offsets, st, g, out, p, limit):
     """Write the first ``limit`` vertices of group ``g`` to ``out[p:]``.
 
@@ -335,7 +336,7 @@ def _emit(coords, ring_offsets, st, g, out, p, limit):
     return w
 
 
-@njit(I64(I64_2D, I64_1D, _STATE, I64), cache=True, nogil=True)
+@kernel(I64(I64_2D, I64_1D, _STATE, I64))
 def _out_length(coords, ring_offsets, st, g):
     """Vertices of group ``g`` as emitted (a loop drops a last vertex == first)."""
     nv = st[g, _NV]
@@ -347,7 +348,7 @@ def _out_length(coords, ring_offsets, st, g):
     return nv - 1 if same else nv
 
 
-@njit(_OUT(I64_2D, I64_1D, I64_1D, I64, I64), cache=True, nogil=True)
+@kernel(_OUT(I64_2D, I64_1D, I64_1D, I64, I64))
 def stitch_chains(coords, ring_offsets, layer_offsets, max_gap_in_order, max_gap_any):
     """Join the open chains of each layer into longer chains and closed loops.
 

@@ -1,14 +1,15 @@
 """Kernels deriving the edge topology of a triangle mesh."""
 
 import numpy as np
-from numba import njit, prange, types
+from numba import prange, types
 
+from ._jit import kernel
 from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 
 _SMALL_BUCKET = 32
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _ends(faces, h):
     """(start, end) vertex of half-edge ``h``."""
     f = h // 3
@@ -16,14 +17,14 @@ def _ends(faces, h):
     return faces[f, j], faces[f, (j + 1) % 3]
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _other(faces, h, v):
     """The vertex of half-edge ``h`` that is not ``v``."""
     a, b = _ends(faces, h)
     return b if a == v else a
 
 
-@njit(types.Tuple((I64_1D_OUT, I64_1D_OUT))(I64_2D, I64), cache=True, nogil=True)
+@kernel(types.Tuple((I64_1D_OUT, I64_1D_OUT))(I64_2D, I64))
 def _buckets(faces, n_vertices):
     """Half-edges bucketed by their smaller vertex (counting sort, stable)."""
     n_half = 3 * faces.shape[0]
@@ -43,10 +44,9 @@ def _buckets(faces, n_vertices):
     return offsets, items
 
 
-@njit(
+@kernel(
     types.int64(I64_2D, I64_1D, I64, I64, I64_1D, types.int64[::1], types.int64[::1],
                 types.int64[:, ::1], types.int64[::1], types.boolean),
-    cache=True, nogil=True,
 )
 def _bucket_edges(faces, items, v, e0, offsets, out_edge, out_twin, out_verts,
                   scratch, write):
@@ -107,9 +107,8 @@ def _bucket_edges(faces, items, v, e0, offsets, out_edge, out_twin, out_verts,
     return n_edges
 
 
-@njit(
-    types.Tuple((I64_2D_OUT, I64_2D_OUT, I64_1D_OUT))(I64_2D, I64),
-    cache=True, nogil=True, parallel=True,
+@kernel(
+    types.Tuple((I64_2D_OUT, I64_2D_OUT, I64_1D_OUT))(I64_2D, I64), parallel=True,
 )
 def edge_topology(faces, n_vertices):
     """Number the undirected edges of a triangle mesh.
@@ -159,7 +158,7 @@ def edge_topology(faces, n_vertices):
     return edge_of.reshape((faces.shape[0], 3)), edge_verts, twin
 
 
-@njit(I64_1D_OUT(I64_2D, I64), cache=True, nogil=True)
+@kernel(I64_1D_OUT(I64_2D, I64))
 def edge_face_counts(face_edges, n_edges):
     """Number of faces that use each edge (2 on a closed manifold)."""
     out = np.zeros(n_edges, dtype=np.int64)

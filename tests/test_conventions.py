@@ -1,13 +1,15 @@
-"""STYLE.md conventions turned into tests: every public kernel is eager and cached."""
+"""STYLE.md conventions as tests: every kernel is typed, cached, nogil, exact."""
 
 import importlib
 import pkgutil
 
+import numpy as np
 import pytest
 from numba.core.caching import NullCache
 from numba.core.registry import CPUDispatcher
 
 import vecslice._kernels as kernels
+from vecslice._kernels._jit import kernel
 
 
 def _kernels():
@@ -18,18 +20,57 @@ def _kernels():
                 yield pytest.param(obj, id=f"{info.name}.{name}")
 
 
-@pytest.mark.parametrize("kernel", list(_kernels()))
+KERNELS = list(_kernels())
+DECLARED = [p for p in KERNELS if p.values[0].targetoptions.get("inline") != "always"]
+
+
+def test_kernels_are_found():
+    assert len(DECLARED) >= 30
+
+
+@pytest.mark.parametrize("kernel", KERNELS)
 def test_kernel_is_cached_nogil_and_without_fastmath(kernel):
     assert not isinstance(kernel._cache, NullCache), "use cache=True"
     assert kernel.targetoptions.get("nogil"), "use nogil=True"
     assert not kernel.targetoptions.get("fastmath"), "no fastmath"
 
 
-@pytest.mark.parametrize(
-    "kernel",
-    [p for p in _kernels()
-     if not p.values[0].targetoptions.get("inline") == "always"],
-)
-def test_public_kernels_have_explicit_signatures(kernel):
-    # inline helpers are compiled into their callers; every other kernel is eager
-    assert kernel.signatures, "declare an explicit signature from _types"
+@pytest.mark.parametrize("kernel", DECLARED)
+def test_kernels_declare_one_signature_and_compile_only_it(kernel):
+    # inline helpers are compiled into their callers; every other kernel declares
+    # its signature and, once used, holds exactly that one compiled version
+    sig = getattr(kernel, "declared_signature", None)
+    assert sig is not None, "declare an explicit signature from _types"
+    assert kernel.signatures in ([], [sig.args])
+    if not kernel.signatures:
+        kernel.get_call_template(sig.args, {})  # what a calling kernel does
+    assert kernel.signatures == [sig.args]
+    assert not kernel._can_compile, "no further specialisations"
+
+
+def test_first_call_compiles_the_declared_signature_only():
+    # a fresh kernel: importing compiles nothing, the first call compiles the
+    # declared (read-only) signature, which writeable arrays also fit, and
+    # arguments of another type are refused instead of compiled
+    from vecslice._kernels._types import I64, I64_1D
+
+    @kernel(I64(I64_1D))
+    def total(a):
+        s = 0
+        for x in a:
+            s += x
+        return s
+
+    assert total.signatures == []
+    a = np.arange(5, dtype=np.int64)
+    assert total(a) == 10
+    a.flags.writeable = False
+    assert total(a) == 10
+    assert total.signatures == [total.declared_signature.args]
+    with pytest.raises(TypeError, match="No matching definition"):
+        total(np.arange(3.0))
+
+
+def test_fastmath_is_refused():
+    with pytest.raises(ValueError, match="fastmath"):
+        kernel(fastmath=True)

@@ -1,0 +1,81 @@
+"""The decorator every kernel uses: cached, nogil, no fastmath, one declared signature.
+
+A kernel declares its signature (types from :mod:`._types`) but is compiled only
+when it is first called — from Python or from another kernel — and then for exactly
+that signature, loaded from numba's on-disk cache when a previous run left it there.
+Importing a kernel module therefore costs nothing, and a run compiles only the
+kernels it uses. After the first call a kernel behaves as an eagerly compiled one:
+no further specialisations, and arguments that do not fit the signature raise
+numba's ``TypeError``.
+"""
+
+import threading
+import time
+
+from numba import njit
+
+__all__ = ["compile_listeners", "kernel"]
+
+_lock = threading.RLock()
+
+compile_listeners = []
+"""Callables ``f(event, name, seconds)`` told when a kernel is first made ready.
+
+``event`` is ``"start"`` (seconds 0.0) or ``"end"`` (seconds spent compiling or
+loading it from the cache). Used by the command line to say that a first run is
+compiling; nothing in the kernels depends on it.
+"""
+
+
+def _notify(event, name, seconds):
+    for listener in list(compile_listeners):
+        listener(event, name, seconds)
+
+
+def kernel(signature=None, **options):
+    """Decorate a kernel: ``njit(cache=True, nogil=True, **options)``, compiled lazily.
+
+    Parameters
+    ----------
+    signature : numba signature, optional
+        The one signature the kernel is compiled for. Only helpers inlined into
+        their callers (``inline="always"``) may omit it.
+    **options
+        Further numba options (``parallel``, ``inline``). ``fastmath`` is refused:
+        results must be exact.
+    """
+    if options.get("fastmath"):
+        raise ValueError("kernels must not use fastmath")
+
+    def decorate(fn):
+        disp = njit(cache=True, nogil=True, **options)(fn)
+        if signature is None:
+            return disp
+        disp.declared_signature = signature
+        plain_call_template = disp.get_call_template
+
+        def ready():
+            with _lock:
+                if disp._can_compile:
+                    _notify("start", fn.__qualname__, 0.0)
+                    t = time.perf_counter()
+                    disp.compile(signature)
+                    disp.disable_compile()
+                    _notify("end", fn.__qualname__, time.perf_counter() - t)
+
+        def compile_for_args(*args, **kws):
+            # called by numba's dispatcher when no compiled version matches: make
+            # the declared one, then let the dispatcher call (or reject) it
+            ready()
+            return disp
+
+        def get_call_template(args, kws):
+            # called when another kernel being compiled calls this one
+            ready()
+            return plain_call_template(args, kws)
+
+        disp._compile_for_args = compile_for_args
+        disp.get_call_template = get_call_template
+        return disp
+
+    return decorate
