@@ -570,27 +570,3 @@ def to_shapely(parts: Any, k: int, *, scale: float = 1e-3) -> Any:
         (ring_offsets, part_offsets - r0, np.array([0, q1 - q0], dtype=np.int64)),
     )[0]
 
-
-def layer_xor_areas(a: LayerPaths, b: LayerPaths) -> NDArray[np.float64]:
-    """Area (µm²) of the symmetric difference of ``a`` and ``b``, per layer.
-
-    Each layer of each input is filled with the NonZero rule first.
-
-    Examples
-    --------
-    >>> sq = [[0, 0], [10, 0], [10, 10], [0, 10]]
-    >>> a = LayerPaths(sq, [0, 4], [0, 1])
-    >>> b = LayerPaths([[5, 0], [15, 0], [15, 10], [5, 10]], [0, 4], [0, 1])
-    >>> layer_xor_areas(a, b).tolist()
-    [100.0]
-    """
-    a, b = _check_loops(a), _check_loops(b)
-    if a.n_layers != b.n_layers:
-        raise InputValueError(
-            f"`b` must have as many layers as `a` ({a.n_layers}); got {b.n_layers}"
-        )
-    sa = _cross_sections(a, manifold3d.FillRule.NonZero)
-    sb = _cross_sections(b, manifold3d.FillRule.NonZero)
-    return np.array([(x - y).area() + (y - x).area() for x, y in zip(sa, sb,
-                                                                     strict=True)],
-                    dtype=np.float64)

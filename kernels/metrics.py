@@ -1,0 +1,846 @@
+"""Kernels measuring how far simplified rings are from the raw rings they came from.
+
+Ring ``r`` of ``simp`` is the simplification of ring ``r`` of ``raw`` (or empty,
+when the ring was dropped). Simplification keeps the raw ring's vertex order: a
+simplified ring is a subsequence of its raw ring, except that the short-edge ->
+intersection rule moves some kept vertices. ``_match`` recovers that
+correspondence (the *anchor* of a simplified vertex is the raw vertex it equals,
+or -1 for a moved one), and both metrics use it only to be fast, never to be
+right:
+
+* **Deviation** (largest distance from a vertex of one ring to the other ring).
+  The distance of a vertex to a ring is the minimum over the ring's edges of a
+  point-segment distance ``_point_segment`` (one float64 formula over exact int64
+  pieces). Candidate edges from the correspondence give an upper bound for every
+  vertex in linear time; the vertex with the largest bound is then measured
+  against *all* edges, and only vertices whose bound still exceeds the best exact
+  value are measured too. The result is exactly the maximum over all vertex-edge
+  pairs (the brute-force value), whatever the correspondence.
+* **XOR area** ``∫ |w_raw - w_simp| dA`` (winding numbers; the area of the
+  symmetric difference for simple rings). Between consecutive anchored vertices
+  the raw chain and the simplified chain bound one *piece*; the pieces sum to
+  ``raw - simp`` as cycles. A piece's ``∫|w|`` is exact when its raw chain is
+  monotone along its chord (then it is ``∫ |h| dt``, split where the chain
+  crosses the chord) or the piece is a small simple polygon (``|shoelace|``). The
+  sum is the ring's XOR area when no two pieces overlap: neighbours must lie on
+  either side of a line through their shared vertex, other pieces far enough
+  apart (band test). Rings where any check fails are flagged for an exact boolean
+  fallback (the caller's).
+
+Preconditions (the caller checks them): |coords| < 2**30; both offset arrays are
+valid and have the same number of rings.
+"""
+
+import numpy as np
+from numba import prange, types
+
+from ._jit import kernel
+from ._types import B1, F64, I64, I64_1D, I64_2D
+
+_W1 = types.int64[::1]
+_W2 = types.int64[:, ::1]
+_WF = types.float64[::1]
+_F64_OUT = types.float64[::1]
+_B1_OUT = types.boolean[::1]
+
+SMALL = 64  # largest piece (vertices) checked for simplicity in O(k^2)
+_SCALE = 1048576.0  # 2**20: integer bisector directions, products stay < 2**53
+_EXTENT = 1 << 26  # small pieces: shoelace terms < 2**53, sums of 64 fit int64
+
+
+@kernel(F64(I64, I64, I64, I64, I64, I64), inline="always")
+def _point_segment(px, py, ax, ay, bx, by):
+    """Distance from p to the closed segment a-b, µm (float64).
+
+    Which of the three cases applies is decided exactly in int64; the distance is
+    ``sqrt(float(d2))`` to an end point or ``|float(cross)| / sqrt(float(len2))``.
+    """
+    dx = bx - ax
+    dy = by - ay
+    qx = px - ax
+    qy = py - ay
+    dot = qx * dx + qy * dy
+    len2 = dx * dx + dy * dy
+    if dot <= 0 or len2 == 0:
+        return np.sqrt(np.float64(qx * qx + qy * qy))
+    if dot >= len2:
+        rx = px - bx
+        ry = py - by
+        return np.sqrt(np.float64(rx * rx + ry * ry))
+    cross = dx * qy - dy * qx
+    return abs(np.float64(cross)) / np.sqrt(np.float64(len2))
+
+
+@kernel(F64(I64, I64, I64_2D, I64, I64), inline="always")
+def _to_ring(px, py, c, start, n):
+    """Distance from p to ring ``c[start:start + n]`` (closed), all edges."""
+    best = np.inf
+    for i in range(n):
+        j = i + 1 if i + 1 < n else 0
+        d = _point_segment(px, py, c[start + i, 0], c[start + i, 1],
+                           c[start + j, 0], c[start + j, 1])
+        if d < best:
+            best = d
+    return best
+
+
+@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1))
+def _match(rc, r0, n, sc, s0, m, anchor):
+    """Anchor each simplified vertex to the raw vertex it equals, in order.
+
+    ``anchor[j]`` is a local raw index, strictly increasing over the anchored
+    vertices, or -1 (moved, or not found before the next one or two simplified
+    vertices). Returns False when the scan exceeds its linear budget.
+    """
+    k = 0
+    budget = 4 * n + 4 * m + 16
+    for j in range(m):
+        sx = sc[s0 + j, 0]
+        sy = sc[s0 + j, 1]
+        anchor[j] = -1
+        kk = k
+        while kk < n:
+            budget -= 1
+            if budget < 0:
+                return False
+            x = rc[r0 + kk, 0]
+            y = rc[r0 + kk, 1]
+            if x == sx and y == sy:
+                anchor[j] = kk
+                k = kk + 1
+                break
+            if j + 1 < m and x == sc[s0 + j + 1, 0] and y == sc[s0 + j + 1, 1]:
+                break
+            if j + 2 < m and x == sc[s0 + j + 2, 0] and y == sc[s0 + j + 2, 1]:
+                break
+            kk += 1
+    return True
+
+
+@kernel(I64(I64, I64, I64, I64, I64, I64), inline="always")
+def _orient(ax, ay, bx, by, cx, cy):
+    """Sign of the turn a -> b -> c (exact)."""
+    v = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    if v > 0:
+        return np.int64(1)
+    if v < 0:
+        return np.int64(-1)
+    return np.int64(0)
+
+
+@kernel(F64(_W2, I64, F64), inline="always")
+def _y_at(e, i, x):
+    """y of (non-vertical) edge ``e[i]`` at abscissa x."""
+    x0 = np.float64(e[i, 0])
+    y0 = np.float64(e[i, 1])
+    return y0 + (np.float64(e[i, 3]) - y0) * ((x - x0) / (np.float64(e[i, 2]) - x0))
+
+
+@kernel(F64(_W2, I64))
+def winding_area(e, ne):
+    """``∫ |w| dA`` (µm²) of the directed edges ``e[:ne]`` = (x0, y0, x1, y1).
+
+    The edges must form closed cycles; ``w`` is their winding number. A sweep over
+    x: the slabs between consecutive vertex and crossing abscissae hold no
+    crossing, so within a slab the edges are ordered by y and ``w`` is constant
+    between neighbours. Time O((E + I) * A log A) for E edges, I crossings and at
+    most A edges over one abscissa. Vertical edges bound no slab area and are
+    dropped (``e`` is compacted in place).
+    """
+    k = 0
+    for i in range(ne):
+        if e[i, 0] != e[i, 2]:
+            for c in range(4):
+                e[k, c] = e[i, c]
+            k += 1
+    ne = k
+    if ne == 0:
+        return 0.0
+    xmin = np.empty(ne, np.int64)
+    xmax = np.empty(ne, np.int64)
+    for i in range(ne):
+        xmin[i] = min(e[i, 0], e[i, 2])
+        xmax[i] = max(e[i, 0], e[i, 2])
+    order = np.argsort(xmin)
+    cap = 2 * ne + 16
+    ev = np.empty(cap, np.float64)
+    nev = 0
+    for i in range(ne):
+        ev[nev] = np.float64(e[i, 0])
+        ev[nev + 1] = np.float64(e[i, 2])
+        nev += 2
+    active = np.empty(ne, np.int64)
+    na = 0
+    for ii in range(ne):
+        f = order[ii]
+        c = 0
+        for a in range(na):
+            g = active[a]
+            if xmax[g] > xmin[f]:
+                active[c] = g
+                c += 1
+        na = c
+        ax = e[f, 0]
+        ay = e[f, 1]
+        bx = e[f, 2]
+        by = e[f, 3]
+        for a in range(na):
+            g = active[a]
+            cx = e[g, 0]
+            cy = e[g, 1]
+            dx = e[g, 2]
+            dy = e[g, 3]
+            if (_orient(ax, ay, bx, by, cx, cy) * _orient(ax, ay, bx, by, dx, dy) < 0
+                    and _orient(cx, cy, dx, dy, ax, ay)
+                    * _orient(cx, cy, dx, dy, bx, by) < 0):
+                rx = bx - ax
+                ry = by - ay
+                num = (cx - ax) * (dy - cy) - (cy - ay) * (dx - cx)
+                den = rx * (dy - cy) - ry * (dx - cx)
+                if nev == cap:
+                    cap *= 2
+                    grown = np.empty(cap, np.float64)
+                    grown[:nev] = ev[:nev]
+                    ev = grown
+                ev[nev] = np.float64(ax) + np.float64(rx) * (
+                    np.float64(num) / np.float64(den))
+                nev += 1
+        active[na] = f
+        na += 1
+    ev = np.sort(ev[:nev])
+    ym = np.empty(ne, np.float64)
+    total = 0.0
+    ptr = 0
+    na = 0
+    for s in range(nev - 1):
+        xa = ev[s]
+        xb = ev[s + 1]
+        if not xb > xa:
+            continue
+        while ptr < ne and np.float64(xmin[order[ptr]]) <= xa:
+            active[na] = order[ptr]
+            na += 1
+            ptr += 1
+        c = 0
+        for a in range(na):
+            g = active[a]
+            if np.float64(xmax[g]) > xa:
+                active[c] = g
+                c += 1
+        na = c
+        xm = 0.5 * (xa + xb)
+        for a in range(na):  # insertion sort by y at mid-slab (nearly sorted)
+            g = active[a]
+            y = _y_at(e, g, xm)
+            b = a
+            while b > 0 and ym[b - 1] > y:
+                ym[b] = ym[b - 1]
+                active[b] = active[b - 1]
+                b -= 1
+            ym[b] = y
+            active[b] = g
+        w = 0
+        acc = 0.0
+        for a in range(na - 1):
+            g = active[a]
+            w += 1 if e[g, 2] > e[g, 0] else -1
+            if w != 0:
+                h = active[a + 1]
+                acc += abs(w) * ((_y_at(e, h, xa) - _y_at(e, g, xa))
+                                 + (_y_at(e, h, xb) - _y_at(e, g, xb)))
+        total += acc * (xb - xa) * 0.5
+    return total
+
+
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W2))
+def _ring_area(rc, r0, n, sc, s0, m, e):
+    """``∫ |w_raw - w_simp|`` of a whole ring pair by the sweep (any geometry)."""
+    ne = 0
+    for i in range(n):
+        i1 = i + 1 if i + 1 < n else 0
+        e[ne, 0] = rc[r0 + i, 0]
+        e[ne, 1] = rc[r0 + i, 1]
+        e[ne, 2] = rc[r0 + i1, 0]
+        e[ne, 3] = rc[r0 + i1, 1]
+        ne += 1
+    for j in range(m):
+        j1 = j + 1 if j + 1 < m else 0
+        e[ne, 0] = sc[s0 + j1, 0]
+        e[ne, 1] = sc[s0 + j1, 1]
+        e[ne, 2] = sc[s0 + j, 0]
+        e[ne, 3] = sc[s0 + j, 1]
+        ne += 1
+    return winding_area(e, ne)
+
+
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, I64, I64, I64, I64, _W2))
+def _piece_area(rc, r0, n, sc, s0, m, p, q, ap, aq, e):
+    """``∫ |w|`` of the piece: raw ``ap..aq``, then simplified ``q, q-1, ..., p``."""
+    ne = 0
+    for kk in range(ap, aq):
+        k = kk if kk < n else kk - n
+        k1 = k + 1 if k + 1 < n else 0
+        e[ne, 0] = rc[r0 + k, 0]
+        e[ne, 1] = rc[r0 + k, 1]
+        e[ne, 2] = rc[r0 + k1, 0]
+        e[ne, 3] = rc[r0 + k1, 1]
+        ne += 1
+    j = q
+    while j != p:
+        jb = j - 1 if j > 0 else m - 1
+        e[ne, 0] = sc[s0 + j, 0]
+        e[ne, 1] = sc[s0 + j, 1]
+        e[ne, 2] = sc[s0 + jb, 0]
+        e[ne, 3] = sc[s0 + jb, 1]
+        ne += 1
+        j = jb
+    return winding_area(e, ne)
+
+
+@kernel(F64(I64, I64, I64), inline="always")
+def _strip(dd, c0, c1):
+    """``∫ |C| dD`` over a step of ``dd`` from height c0 to c1 (split at C = 0)."""
+    f0 = abs(np.float64(c0))
+    f1 = abs(np.float64(c1))
+    if (c0 >= 0 and c1 >= 0) or (c0 <= 0 and c1 <= 0):
+        return np.float64(dd) * (f0 + f1) * 0.5
+    return np.float64(dd) * (f0 * f0 + f1 * f1) / (2.0 * (f0 + f1))
+
+
+# per-run integer record in ``wi`` (_NI entries) and float record in ``wf`` (_NF)
+_P, _Q, _AP, _AQ, _KIND, _X0, _Y0, _X1, _Y1, _KMAX = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9
+_NI = 10
+_UB, _H, _AREA = 0, 1, 2
+_NF = 3
+
+
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, _W2))
+def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
+    """Measure run ``t`` (simplified p..q, raw ap..aq): deviation bound, piece area.
+
+    Fills the run's records: ``_UB`` the largest distance bound of its raw
+    vertices (to the simplified edges p..q) and ``_KMAX`` that vertex; ``_H`` a
+    radius around the segment s_p-s_q holding the piece; the box of that
+    neighbourhood; ``_KIND`` 1 if the piece has area. Returns the piece's ``∫|w|``.
+    """
+    b = _NI * t
+    p = wi[b + _P]
+    q = wi[b + _Q]
+    ap = wi[b + _AP]
+    aq = wi[b + _AQ]
+    ax = sc[s0 + p, 0]
+    ay = sc[s0 + p, 1]
+    bx = sc[s0 + q, 0]
+    by = sc[s0 + q, 1]
+    ex = bx - ax
+    ey = by - ay
+    len2 = ex * ex + ey * ey
+    single = q == (p + 1 if p + 1 < m else 0) and len2 > 0
+    area = 0.0
+    kmax = ap
+    x0 = min(ax, bx)  # the box of the piece's vertices
+    y0 = min(ay, by)
+    x1 = max(ax, bx)
+    y1 = max(ay, by)
+    if single:
+        mono = True
+        acc = 0.0
+        d0 = np.int64(0)
+        c0 = np.int64(0)
+        cmax = np.int64(0)
+        kc = ap
+        e2max = np.int64(0)
+        ke = ap
+        for kk in range(ap + 1, aq + 1):
+            k = kk if kk < n else kk - n
+            vx = rc[r0 + k, 0]
+            vy = rc[r0 + k, 1]
+            x0 = min(x0, vx)
+            y0 = min(y0, vy)
+            x1 = max(x1, vx)
+            y1 = max(y1, vy)
+            qx = vx - ax
+            qy = vy - ay
+            d1 = qx * ex + qy * ey
+            c1 = ex * qy - ey * qx
+            if d1 <= 0:
+                e2 = qx * qx + qy * qy
+                if e2 > e2max:
+                    e2max = e2
+                    ke = k
+            elif d1 >= len2:
+                rx = vx - bx
+                ry = vy - by
+                e2 = rx * rx + ry * ry
+                if e2 > e2max:
+                    e2max = e2
+                    ke = k
+            elif abs(c1) > cmax:
+                cmax = abs(c1)
+                kc = k
+            if mono:
+                if d1 < d0:
+                    mono = False
+                else:
+                    acc += _strip(d1 - d0, c0, c1)
+                    d0 = d1
+                    c0 = c1
+        hc = np.float64(cmax) / np.sqrt(np.float64(len2))
+        he = np.sqrt(np.float64(e2max))
+        ub = hc if hc >= he else he
+        kmax = kc if hc >= he else ke
+        h = ub
+        area = acc / np.float64(len2) if mono else _piece_area(
+            rc, r0, n, sc, s0, m, p, q, ap, aq, e)
+    else:
+        ub = 0.0
+        for kk in range(ap, aq + 1):
+            k = kk if kk < n else kk - n
+            px = rc[r0 + k, 0]
+            py = rc[r0 + k, 1]
+            best = np.inf
+            j = p
+            while j != q:
+                j1 = j + 1 if j + 1 < m else 0
+                d = _point_segment(px, py, sc[s0 + j, 0], sc[s0 + j, 1],
+                                   sc[s0 + j1, 0], sc[s0 + j1, 1])
+                best = min(best, d)
+                j = j1
+            if best > ub:
+                ub = best
+                kmax = k
+        h = np.inf  # no band: the piece has no single chord
+        for kk in range(ap, aq + 1):
+            k = kk if kk < n else kk - n
+            x0 = min(x0, rc[r0 + k, 0])
+            y0 = min(y0, rc[r0 + k, 1])
+            x1 = max(x1, rc[r0 + k, 0])
+            y1 = max(y1, rc[r0 + k, 1])
+        j = p
+        while j != q:
+            x0 = min(x0, sc[s0 + j, 0])
+            y0 = min(y0, sc[s0 + j, 1])
+            x1 = max(x1, sc[s0 + j, 0])
+            y1 = max(y1, sc[s0 + j, 1])
+            j = j + 1 if j + 1 < m else 0
+        area = _piece_area(rc, r0, n, sc, s0, m, p, q, ap, aq, e)
+    wi[b + _X0] = x0
+    wi[b + _Y0] = y0
+    wi[b + _X1] = x1
+    wi[b + _Y1] = y1
+    wi[b + _KIND] = 1 if area > 0.0 else 0
+    wi[b + _KMAX] = kmax
+    wf[_NF * t + _UB] = ub
+    wf[_NF * t + _H] = h
+    wf[_NF * t + _AREA] = area
+    return area
+
+
+@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, I64, I64, I64, I64, I64, I64, I64,
+           I64, I64))
+def _one_side(rc, r0, n, sc, s0, m, p, q, ap, aq, ox, oy, dx, dy, sigma):
+    """Every vertex v of run (p, q, ap, aq) has ``sigma * cross(d, v - o) >= 0``."""
+    for kk in range(ap, aq + 1):
+        k = kk if kk < n else kk - n
+        v = dx * (rc[r0 + k, 1] - oy) - dy * (rc[r0 + k, 0] - ox)
+        if sigma * v < 0:
+            return False
+    j = p + 1 if p + 1 < m else 0
+    while j != q:
+        v = dx * (sc[s0 + j, 1] - oy) - dy * (sc[s0 + j, 0] - ox)
+        if sigma * v < 0:
+            return False
+        j = j + 1 if j + 1 < m else 0
+    return True
+
+
+@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, I64, I64))
+def _neighbours_apart(rc, r0, n, sc, s0, m, wi, t, npc):
+    """Runs t-1 and t lie on either side of a line through their shared vertex.
+
+    The line is the bisector of the two simplified edges there, as an integer
+    direction; the test is exact (a run's piece lies in the convex hull of its
+    vertices).
+    """
+    tl = t - 1 if t > 0 else npc - 1
+    v = wi[_NI * t + _P]
+    vb = v - 1 if v > 0 else m - 1
+    va = v + 1 if v + 1 < m else 0
+    ox = sc[s0 + v, 0]
+    oy = sc[s0 + v, 1]
+    ux = np.float64(ox - sc[s0 + vb, 0])
+    uy = np.float64(oy - sc[s0 + vb, 1])
+    wx = np.float64(sc[s0 + va, 0] - ox)
+    wy = np.float64(sc[s0 + va, 1] - oy)
+    lu = np.sqrt(ux * ux + uy * uy)
+    lw = np.sqrt(wx * wx + wy * wy)
+    if lu == 0.0 or lw == 0.0:
+        return False
+    bx = ux / lu + wx / lw
+    by = uy / lu + wy / lw
+    lb = np.sqrt(bx * bx + by * by)
+    if lb < 1e-6:  # the ring reverses here: no separating line
+        return False
+    dx = np.int64(np.rint(-by / lb * _SCALE))
+    dy = np.int64(np.rint(bx / lb * _SCALE))
+    sb = dx * (sc[s0 + vb, 1] - oy) - dy * (sc[s0 + vb, 0] - ox)
+    sa = dx * (sc[s0 + va, 1] - oy) - dy * (sc[s0 + va, 0] - ox)
+    if sb == 0 or sa == 0 or (sb > 0) == (sa > 0):
+        return False
+    sigma = np.int64(1) if sb > 0 else np.int64(-1)
+    bl = _NI * tl
+    br = _NI * t
+    return (_one_side(rc, r0, n, sc, s0, m, wi[bl + _P], wi[bl + _Q], wi[bl + _AP],
+                      wi[bl + _AQ], ox, oy, dx, dy, sigma)
+            and _one_side(rc, r0, n, sc, s0, m, wi[br + _P], wi[br + _Q],
+                          wi[br + _AP], wi[br + _AQ], ox, oy, dx, dy, -sigma))
+
+
+@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, I64))
+def _outside_band(rc, r0, n, sc, s0, m, wi, wf, t, u):
+    """All vertices of run t lie beyond one side of run u's band (|h| <= H_u)."""
+    bu = _NI * u
+    ax = sc[s0 + wi[bu + _P], 0]
+    ay = sc[s0 + wi[bu + _P], 1]
+    ex = sc[s0 + wi[bu + _Q], 0] - ax
+    ey = sc[s0 + wi[bu + _Q], 1] - ay
+    lim = wf[_NF * u + _H] * np.sqrt(np.float64(ex * ex + ey * ey)) * (1.0 + 1e-12)
+    bt = _NI * t
+    lo = np.inf
+    hi = -np.inf
+    for kk in range(wi[bt + _AP], wi[bt + _AQ] + 1):
+        k = kk if kk < n else kk - n
+        c = np.float64(ex * (rc[r0 + k, 1] - ay) - ey * (rc[r0 + k, 0] - ax))
+        lo = min(lo, c)
+        hi = max(hi, c)
+    j = wi[bt + _P]
+    while j != wi[bt + _Q]:
+        c = np.float64(ex * (sc[s0 + j, 1] - ay) - ey * (sc[s0 + j, 0] - ax))
+        lo = min(lo, c)
+        hi = max(hi, c)
+        j = j + 1 if j + 1 < m else 0
+    return lo > lim or hi < -lim
+
+
+@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, _W1, I64))
+def _others_apart(rc, r0, n, sc, s0, m, wi, wf, group, npc):
+    """Runs in different groups that are not neighbours do not overlap.
+
+    A run with a single chord lies within ``H`` of it, any run in the convex
+    hull of its vertices: boxes first, then chords more than ``H_i + H_j``
+    apart, or one run's vertices all beyond the other's band.
+    """
+    nz = 0
+    keys = np.empty(npc, np.int64)
+    idx = np.empty(npc, np.int64)
+    for t in range(npc):
+        if wi[_NI * t + _KIND] != 0:
+            keys[nz] = wi[_NI * t + _X0]
+            idx[nz] = t
+            nz += 1
+    order = np.argsort(keys[:nz])
+    budget = 8 * npc + 64
+    for a in range(nz):
+        ti = idx[order[a]]
+        bi = _NI * ti
+        for c in range(a + 1, nz):
+            tj = idx[order[c]]
+            bj = _NI * tj
+            if wi[bj + _X0] > wi[bi + _X1]:
+                break
+            dt = abs(ti - tj)
+            if dt == 1 or dt == npc - 1 or group[ti] == group[tj]:
+                continue
+            if wi[bj + _Y0] > wi[bi + _Y1] or wi[bi + _Y0] > wi[bj + _Y1]:
+                continue
+            budget -= 1
+            if budget < 0:
+                return False
+            hi = wf[_NF * ti + _H]
+            hj = wf[_NF * tj + _H]
+            if hi < np.inf and hj < np.inf:
+                d = _segment_distance(
+                    sc[s0 + wi[bi + _P], 0], sc[s0 + wi[bi + _P], 1],
+                    sc[s0 + wi[bi + _Q], 0], sc[s0 + wi[bi + _Q], 1],
+                    sc[s0 + wi[bj + _P], 0], sc[s0 + wi[bj + _P], 1],
+                    sc[s0 + wi[bj + _Q], 0], sc[s0 + wi[bj + _Q], 1],
+                )
+                if d > (hi + hj) * (1.0 + 1e-12):
+                    continue
+            if hj < np.inf and _outside_band(rc, r0, n, sc, s0, m, wi, wf, ti, tj):
+                continue
+            if hi < np.inf and _outside_band(rc, r0, n, sc, s0, m, wi, wf, tj, ti):
+                continue
+            return False
+    return True
+
+
+@kernel(B1(I64, I64, I64, I64, I64, I64), inline="always")
+def _on_box(ax, ay, bx, by, cx, cy):
+    """c (collinear with a-b) lies on the closed segment a-b."""
+    return (min(ax, bx) <= cx <= max(ax, bx)) and (min(ay, by) <= cy <= max(ay, by))
+
+
+@kernel(B1(I64, I64, I64, I64, I64, I64, I64, I64), inline="always")
+def _touch(ax, ay, bx, by, cx, cy, dx, dy):
+    """Closed segments a-b and c-d share a point (exact)."""
+    o1 = _orient(ax, ay, bx, by, cx, cy)
+    o2 = _orient(ax, ay, bx, by, dx, dy)
+    o3 = _orient(cx, cy, dx, dy, ax, ay)
+    o4 = _orient(cx, cy, dx, dy, bx, by)
+    if o1 * o2 < 0 and o3 * o4 < 0:
+        return True
+    return ((o1 == 0 and _on_box(ax, ay, bx, by, cx, cy))
+            or (o2 == 0 and _on_box(ax, ay, bx, by, dx, dy))
+            or (o3 == 0 and _on_box(cx, cy, dx, dy, ax, ay))
+            or (o4 == 0 and _on_box(cx, cy, dx, dy, bx, by)))
+
+
+@kernel(F64(I64, I64, I64, I64, I64, I64, I64, I64), inline="always")
+def _segment_distance(ax, ay, bx, by, cx, cy, dx, dy):
+    """Distance between closed segments a-b and c-d, µm (0 if they touch)."""
+    if _touch(ax, ay, bx, by, cx, cy, dx, dy):
+        return 0.0
+    d = _point_segment(ax, ay, cx, cy, dx, dy)
+    d = min(d, _point_segment(bx, by, cx, cy, dx, dy))
+    d = min(d, _point_segment(cx, cy, ax, ay, bx, by))
+    return min(d, _point_segment(dx, dy, ax, ay, bx, by))
+
+
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64))
+def _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc):
+    """Exact largest distance from a raw vertex to the simplified ring.
+
+    Every run holds the largest bound of its raw vertices (their distance to the
+    run's simplified edges, a subset of the ring's). The vertex with the largest
+    bound is measured against all edges; if that does not settle it, runs whose
+    bound exceeds the best exact distance are revisited, largest first, and their
+    vertices whose bound exceeds it measured exactly.
+    """
+    top = 0
+    for t in range(1, npc):
+        if wf[_NF * t + _UB] > wf[_NF * top + _UB]:
+            top = t
+    bound = wf[_NF * top + _UB]
+    if bound == 0.0:
+        return 0.0
+    k = wi[_NI * top + _KMAX]
+    best = _to_ring(rc[r0 + k, 0], rc[r0 + k, 1], sc, s0, m)
+    if best == bound:
+        return best
+    keys = np.empty(npc, np.float64)
+    for t in range(npc):
+        keys[t] = -wf[_NF * t + _UB]
+    order = np.argsort(keys)
+    for i in range(npc):
+        t = order[i]
+        if wf[_NF * t + _UB] <= best:
+            break
+        b = _NI * t
+        p = wi[b + _P]
+        q = wi[b + _Q]
+        for kk in range(wi[b + _AP], wi[b + _AQ] + 1):
+            k = kk if kk < n else kk - n
+            px = rc[r0 + k, 0]
+            py = rc[r0 + k, 1]
+            u = np.inf
+            j = p
+            while True:
+                j1 = j + 1 if j + 1 < m else 0
+                u = min(u, _point_segment(px, py, sc[s0 + j, 0], sc[s0 + j, 1],
+                                          sc[s0 + j1, 0], sc[s0 + j1, 1]))
+                j = j1
+                if j == q:
+                    break
+            if u > best:
+                best = max(best, _to_ring(px, py, sc, s0, m))
+    return best
+
+
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, I64, _WF))
+def _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub):
+    """Exact largest distance from a simplified vertex to the raw ring.
+
+    Anchored vertices are raw vertices (distance 0). A moved vertex inside run
+    p..q is bounded by the raw edges ap..aq; the largest bounds are then measured
+    against all raw edges, largest first, until no bound exceeds the best.
+    """
+    top = -1
+    for t in range(npc):
+        b = _NI * t
+        p = wi[b + _P]
+        q = wi[b + _Q]
+        ap = wi[b + _AP]
+        aq = wi[b + _AQ]
+        j = p + 1 if p + 1 < m else 0
+        while j != q:
+            u = np.inf
+            for kk in range(ap, aq):
+                k = kk if kk < n else kk - n
+                k1 = k + 1 if k + 1 < n else 0
+                u = min(u, _point_segment(sc[s0 + j, 0], sc[s0 + j, 1],
+                                          rc[r0 + k, 0], rc[r0 + k, 1],
+                                          rc[r0 + k1, 0], rc[r0 + k1, 1]))
+            ub[j] = u
+            if top < 0 or u > ub[top]:
+                top = j
+            j = j + 1 if j + 1 < m else 0
+        ub[p] = 0.0
+    if top < 0 or ub[top] == 0.0:
+        return 0.0
+    best = _to_ring(sc[s0 + top, 0], sc[s0 + top, 1], rc, r0, n)
+    if best == ub[top]:
+        return best
+    keys = np.empty(m, np.float64)
+    for j in range(m):
+        keys[j] = -ub[j]
+    order = np.argsort(keys)
+    for i in range(m):
+        j = order[i]
+        if ub[j] <= best:
+            break
+        best = max(best, _to_ring(sc[s0 + j, 0], sc[s0 + j, 1], rc, r0, n))
+    return best
+
+
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64), inline="always")
+def _all_pairs(ac, a0, na, bc, b0, nb):
+    """Largest distance from a vertex of ring a to ring b, over all pairs."""
+    best = 0.0
+    for i in range(na):
+        best = max(best, _to_ring(ac[a0 + i, 0], ac[a0 + i, 1], bc, b0, nb))
+    return best
+
+
+@kernel(types.Tuple((F64, F64, F64, B1))(I64_2D, I64, I64, I64_2D, I64, I64, _W1,
+                                        _W1, _WF, _WF, _W2))
+def _compare_one(rc, r0, n, sc, s0, m, anchor, wi, wf, ub, e):
+    """(raw -> simp, simp -> raw, ∫|w_raw - w_simp|, linear) of one ring pair."""
+    if m == 0:
+        return np.nan, np.nan, _ring_area(rc, r0, n, sc, s0, m, e), False
+    matched = _match(rc, r0, n, sc, s0, m, anchor)
+    npc = 0
+    first = -1
+    if matched:
+        for j in range(m):
+            if anchor[j] >= 0:
+                npc += 1
+                if first < 0:
+                    first = j
+    if npc < 2:  # no usable correspondence: all pairs, and the sweep
+        return (_all_pairs(rc, r0, n, sc, s0, m), _all_pairs(sc, s0, m, rc, r0, n),
+                _ring_area(rc, r0, n, sc, s0, m, e), False)
+    total = 0.0
+    p = first
+    for t in range(npc):
+        q = p + 1 if p + 1 < m else 0
+        while anchor[q] < 0:
+            q = q + 1 if q + 1 < m else 0
+        b = _NI * t
+        wi[b + _P] = p
+        wi[b + _Q] = q
+        wi[b + _AP] = anchor[p]
+        wi[b + _AQ] = anchor[q] if anchor[q] > anchor[p] else anchor[q] + n
+        total += _run(rc, r0, n, sc, s0, m, wi, wf, t, e)
+        p = q
+    d1 = _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc)
+    d2 = _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub)
+    # neighbours that no line separates are merged into groups of consecutive
+    # runs, measured together by the sweep; group[t] numbers them
+    group = anchor  # the anchors are not needed any more
+    cut = -1
+    for t in range(npc):
+        tl = t - 1 if t > 0 else npc - 1
+        apart = (wi[_NI * t + _KIND] == 0 or wi[_NI * tl + _KIND] == 0
+                 or _neighbours_apart(rc, r0, n, sc, s0, m, wi, t, npc))
+        ub[t] = 1.0 if apart else 0.0
+        if apart and cut < 0:
+            cut = t
+    n_cut = 0
+    for t in range(npc):
+        n_cut += ub[t] == 1.0
+    if n_cut < 2:  # one group holds every run: the whole ring
+        return d1, d2, _ring_area(rc, r0, n, sc, s0, m, e), False
+    g = -1
+    t0 = cut
+    for i in range(npc + 1):
+        t = cut + i if cut + i < npc else cut + i - npc
+        if i == npc or ub[t] == 1.0:  # a group t0..t-1 ends here
+            if i > 0:
+                t1 = t - 1 if t > 0 else npc - 1
+                if t1 != t0:
+                    u = t0
+                    while True:
+                        total -= wf[_NF * u + _AREA]
+                        if u == t1:
+                            break
+                        u = u + 1 if u + 1 < npc else 0
+                    ap = wi[_NI * t0 + _AP]
+                    aq = wi[_NI * t1 + _AQ]
+                    if aq <= ap:
+                        aq += n
+                    total += _piece_area(rc, r0, n, sc, s0, m, wi[_NI * t0 + _P],
+                                         wi[_NI * t1 + _Q], ap, aq, e)
+            if i == npc:
+                break
+            g += 1
+            t0 = t
+        group[t] = g
+    if not _others_apart(rc, r0, n, sc, s0, m, wi, wf, group, npc):
+        return d1, d2, _ring_area(rc, r0, n, sc, s0, m, e), False
+    return d1, d2, total, True
+
+
+@kernel(
+    types.Tuple((_F64_OUT, _F64_OUT, _F64_OUT, _B1_OUT))(I64_2D, I64_1D, I64_2D,
+                                                         I64_1D),
+    parallel=True,
+)
+def compare_rings(raw, raw_offsets, simp, simp_offsets):
+    """Deviation both ways and XOR area of every (raw, simplified) ring pair.
+
+    Returns ``(raw_to_simp, simp_to_raw, xor_area, linear)``, each of shape (R,):
+    the largest distance (µm) from a raw vertex to the simplified ring and from a
+    simplified vertex to the raw ring (NaN where the simplified ring is empty);
+    ``∫ |w_raw - w_simp| dA`` in µm²; and whether the linear pass settled the
+    area (False: the sweep over the whole ring pair did).
+    """
+    n_rings = raw_offsets.shape[0] - 1
+    out1 = np.empty(n_rings, np.float64)
+    out2 = np.empty(n_rings, np.float64)
+    area = np.empty(n_rings, np.float64)
+    linear = np.zeros(n_rings, np.bool_)
+    n_all = raw.shape[0] + simp.shape[0]
+    n_chunks = min(n_rings, 64)
+    bounds = np.zeros(n_chunks + 1, np.int64)
+    r = 0
+    for c in range(1, n_chunks):
+        target = (n_all * c) // n_chunks
+        while r < n_rings and raw_offsets[r] + simp_offsets[r] < target:
+            r += 1
+        bounds[c] = r
+    bounds[n_chunks] = n_rings
+    for c in prange(n_chunks):
+        r0 = bounds[c]
+        r1 = bounds[c + 1]
+        size = 1
+        for rr in range(r0, r1):
+            size = max(size, raw_offsets[rr + 1] - raw_offsets[rr]
+                       + simp_offsets[rr + 1] - simp_offsets[rr])
+        anchor = np.empty(size + 1, np.int64)
+        wi = np.empty(_NI * (size + 1), np.int64)
+        wf = np.empty(_NF * (size + 1), np.float64)
+        ub = np.empty(size + 1, np.float64)
+        e = np.empty((size + 1, 4), np.int64)
+        for rr in range(r0, r1):
+            a0 = raw_offsets[rr]
+            b0 = simp_offsets[rr]
+            d1, d2, a, lin = _compare_one(
+                raw, a0, raw_offsets[rr + 1] - a0, simp, b0,
+                simp_offsets[rr + 1] - b0, anchor, wi, wf, ub, e,
+            )
+            out1[rr] = d1
+            out2[rr] = d2
+            area[rr] = a
+            linear[rr] = lin
+    return out1, out2, area, linear
