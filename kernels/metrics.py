@@ -130,7 +130,7 @@ def _orient(ax, ay, bx, by, cx, cy):
 
 @kernel(F64(_W2, I64, F64), inline="always")
 def _y_at(e, i, x):
-    """y of (non-vertical) edge ``e[i]`` at abscissa x."""
+    """Y of (non-vertical) edge ``e[i]`` at abscissa x."""
     x0 = np.float64(e[i, 0])
     y0 = np.float64(e[i, 1])
     return y0 + (np.float64(e[i, 3]) - y0) * ((x - x0) / (np.float64(e[i, 2]) - x0))
@@ -577,7 +577,7 @@ def _others_apart(rc, r0, n, sc, s0, m, wi, wf, group, npc):
 
 @kernel(B1(I64, I64, I64, I64, I64, I64), inline="always")
 def _on_box(ax, ay, bx, by, cx, cy):
-    """c (collinear with a-b) lies on the closed segment a-b."""
+    """C (collinear with a-b) lies on the closed segment a-b."""
     return (min(ax, bx) <= cx <= max(ax, bx)) and (min(ay, by) <= cy <= max(ay, by))
 
 

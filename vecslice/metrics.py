@@ -116,7 +116,7 @@ class ContourErrors:
 
     @property
     def deviation_um(self) -> NDArray[np.float64]:
-        """Measured deviation of each ring (the larger direction), µm; NaN if dropped."""
+        """Measured deviation of each ring (larger direction), µm; NaN if dropped."""
         return np.fmax(self.raw_to_simplified_um, self.simplified_to_raw_um)
 
     @property

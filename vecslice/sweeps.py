@@ -20,7 +20,12 @@ from typing import Any
 
 import numpy as np
 
-from vecslice.errors import InputTypeError, InputValueError, SettingsError, VecsliceError
+from vecslice.errors import (
+    InputTypeError,
+    InputValueError,
+    SettingsError,
+    VecsliceError,
+)
 from vecslice.settings import SliceSettings
 
 __all__ = ["METRIC_COLUMNS", "XY_SETTINGS", "sweep"]
@@ -161,7 +166,7 @@ def _check_name(key: object, names: tuple[str, ...]) -> None:
 
 
 def _plain(v: Any) -> Any:
-    """numpy scalars from a grid as Python scalars."""
+    """Numpy scalars from a grid as Python scalars."""
     return v.item() if isinstance(v, np.generic) else v
 
 
@@ -326,7 +331,9 @@ def _row(mesh_index: int, name: str, i: int, s: SliceSettings,
 # --- the engine ---------------------------------------------------------------
 
 
-def _schedule_groups(combos: list[SliceSettings]) -> list[list[tuple[int, SliceSettings]]]:
+def _schedule_groups(
+    combos: list[SliceSettings],
+) -> list[list[tuple[int, SliceSettings]]]:
     """Combinations grouped by everything but the XY settings (the schedule)."""
     groups: dict[tuple[Any, ...], list[tuple[int, SliceSettings]]] = {}
     for i, s in enumerate(combos):
@@ -473,13 +480,15 @@ def _run_local(dask: Any, delayed: list[Any], progress: bool) -> list[Any]:
 
 def _run_client(client: Any, tasks: list[Any], progress: bool) -> list[Any]:
     try:
-        from distributed import Client, progress as show
+        from distributed import Client
+        from distributed import progress as show
     except ImportError:
         _require()
         raise
     if not isinstance(client, Client):
         raise InputTypeError(
-            f"`client` must be a distributed.Client or None; got {type(client).__name__}"
+            "`client` must be a distributed.Client or None; got "
+            f"{type(client).__name__}"
         )
     futures = client.compute([t[3] for t in tasks], retries=2)
     if progress:
