@@ -338,6 +338,7 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
     single = q == (p + 1 if p + 1 < m else 0) and len2 > 0
     area = 0.0
     kmax = ap
+    mono = False
     x0 = min(ax, bx)  # the box of the piece's vertices
     y0 = min(ay, by)
     x1 = max(ax, bx)
@@ -428,7 +429,7 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
     wi[b + _Y0] = y0
     wi[b + _X1] = x1
     wi[b + _Y1] = y1
-    wi[b + _KIND] = 1 if area > 0.0 else 0
+    wi[b + _KIND] = 0 if not area > 0.0 else (1 if single and mono else 2)
     wi[b + _KMAX] = kmax
     wf[_NF * t + _UB] = ub
     wf[_NF * t + _H] = h
@@ -436,15 +437,45 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
     return area
 
 
-@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, I64, I64, I64, I64, I64, I64, I64,
+@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, B1, I64, I64, I64,
            I64, I64))
-def _one_side(rc, r0, n, sc, s0, m, p, q, ap, aq, ox, oy, dx, dy, sigma):
-    """Every vertex v of run (p, q, ap, aq) has ``sigma * cross(d, v - o) >= 0``."""
-    for kk in range(ap, aq + 1):
+def _one_side(rc, r0, n, sc, s0, m, wi, wf, t, at_q, ox, oy, dx, dy, sigma):
+    """Every vertex v of run t has ``sigma * cross(d, v - o) >= 0``.
+
+    ``o`` is the run's end p (or q with ``at_q``). A monotone single-chord run
+    lies within H of its chord, its vertices ordered along it: scanning from
+    ``o`` stops once the distance along the chord alone keeps the rest on the
+    right side (float, with a safety margin; a vertex nearer is tested exactly).
+    """
+    b = _NI * t
+    p = wi[b + _P]
+    q = wi[b + _Q]
+    ap = wi[b + _AP]
+    aq = wi[b + _AQ]
+    reach = np.inf
+    ex = np.int64(0)
+    ey = np.int64(0)
+    if wi[b + _KIND] == 1:
+        far = q if not at_q else p
+        ex = sc[s0 + far, 0] - ox
+        ey = sc[s0 + far, 1] - oy
+        fd = np.float64(dx)
+        fe = np.float64(dy)
+        len_e = np.sqrt(np.float64(ex * ex + ey * ey))
+        a = sigma * (fd * np.float64(ey) - fe * np.float64(ex)) / len_e  # d x u
+        bb = abs(fd * np.float64(ex) + fe * np.float64(ey)) / len_e  # |d x n|
+        if a > 0.0:
+            # safe once dot(v - o, e) / |e| * a > H * bb
+            reach = wf[_NF * t + _H] * bb / a * len_e * (1.0 + 1e-9) + 1.0
+    for i in range(aq - ap + 1):
+        kk = aq - i if at_q else ap + i
         k = kk if kk < n else kk - n
-        v = dx * (rc[r0 + k, 1] - oy) - dy * (rc[r0 + k, 0] - ox)
-        if sigma * v < 0:
+        vx = rc[r0 + k, 0] - ox
+        vy = rc[r0 + k, 1] - oy
+        if sigma * (dx * vy - dy * vx) < 0:
             return False
+        if reach < np.inf and np.float64(vx * ex + vy * ey) > reach:
+            return True
     j = p + 1 if p + 1 < m else 0
     while j != q:
         v = dx * (sc[s0 + j, 1] - oy) - dy * (sc[s0 + j, 0] - ox)
@@ -454,8 +485,8 @@ def _one_side(rc, r0, n, sc, s0, m, p, q, ap, aq, ox, oy, dx, dy, sigma):
     return True
 
 
-@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, I64, I64))
-def _neighbours_apart(rc, r0, n, sc, s0, m, wi, t, npc):
+@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, I64))
+def _neighbours_apart(rc, r0, n, sc, s0, m, wi, wf, t, npc):
     """Runs t-1 and t lie on either side of a line through their shared vertex.
 
     The line is the bisector of the two simplified edges there, as an integer
@@ -488,12 +519,9 @@ def _neighbours_apart(rc, r0, n, sc, s0, m, wi, t, npc):
     if sb == 0 or sa == 0 or (sb > 0) == (sa > 0):
         return False
     sigma = np.int64(1) if sb > 0 else np.int64(-1)
-    bl = _NI * tl
-    br = _NI * t
-    return (_one_side(rc, r0, n, sc, s0, m, wi[bl + _P], wi[bl + _Q], wi[bl + _AP],
-                      wi[bl + _AQ], ox, oy, dx, dy, sigma)
-            and _one_side(rc, r0, n, sc, s0, m, wi[br + _P], wi[br + _Q],
-                          wi[br + _AP], wi[br + _AQ], ox, oy, dx, dy, -sigma))
+    return (_one_side(rc, r0, n, sc, s0, m, wi, wf, tl, True, ox, oy, dx, dy, sigma)
+            and _one_side(rc, r0, n, sc, s0, m, wi, wf, t, False, ox, oy, dx, dy,
+                          -sigma))
 
 
 @kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, I64))
@@ -522,13 +550,23 @@ def _outside_band(rc, r0, n, sc, s0, m, wi, wf, t, u):
     return lo > lim or hi < -lim
 
 
+@kernel(I64(_W1, I64), inline="always")
+def _find(parent, t):
+    """Root of t in the union-find forest ``parent`` (path halving)."""
+    while parent[t] != t:
+        parent[t] = parent[parent[t]]
+        t = parent[t]
+    return t
+
+
 @kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, _W1, I64))
-def _others_apart(rc, r0, n, sc, s0, m, wi, wf, group, npc):
-    """Runs in different groups that are not neighbours do not overlap.
+def _others_conflicts(rc, r0, n, sc, s0, m, wi, wf, parent, npc):
+    """Join (in ``parent``) the runs that are not neighbours and may overlap.
 
     A run with a single chord lies within ``H`` of it, any run in the convex
     hull of its vertices: boxes first, then chords more than ``H_i + H_j``
-    apart, or one run's vertices all beyond the other's band.
+    apart, or one run's vertices all beyond the other's band, keep two runs
+    apart. Returns False when there are too many candidate pairs to test.
     """
     nz = 0
     keys = np.empty(npc, np.int64)
@@ -549,13 +587,17 @@ def _others_apart(rc, r0, n, sc, s0, m, wi, wf, group, npc):
             if wi[bj + _X0] > wi[bi + _X1]:
                 break
             dt = abs(ti - tj)
-            if dt == 1 or dt == npc - 1 or group[ti] == group[tj]:
+            if dt == 1 or dt == npc - 1:
                 continue
             if wi[bj + _Y0] > wi[bi + _Y1] or wi[bi + _Y0] > wi[bj + _Y1]:
                 continue
             budget -= 1
             if budget < 0:
                 return False
+            ri = _find(parent, ti)
+            rj = _find(parent, tj)
+            if ri == rj:
+                continue
             hi = wf[_NF * ti + _H]
             hj = wf[_NF * tj + _H]
             if hi < np.inf and hj < np.inf:
@@ -571,8 +613,34 @@ def _others_apart(rc, r0, n, sc, s0, m, wi, wf, group, npc):
                 continue
             if hi < np.inf and _outside_band(rc, r0, n, sc, s0, m, wi, wf, tj, ti):
                 continue
-            return False
+            parent[max(ri, rj)] = min(ri, rj)
     return True
+
+
+@kernel(I64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, I64, I64, _W2, I64))
+def _add_run_edges(rc, r0, n, sc, s0, m, wi, t, root, e, ne):
+    """Append run t's piece (raw ap..aq, simplified q back to p) to ``e``."""
+    b = _NI * t
+    p = wi[b + _P]
+    q = wi[b + _Q]
+    for kk in range(wi[b + _AP], wi[b + _AQ]):
+        k = kk if kk < n else kk - n
+        k1 = k + 1 if k + 1 < n else 0
+        e[ne, 0] = rc[r0 + k, 0]
+        e[ne, 1] = rc[r0 + k, 1]
+        e[ne, 2] = rc[r0 + k1, 0]
+        e[ne, 3] = rc[r0 + k1, 1]
+        ne += 1
+    j = q
+    while j != p:
+        jb = j - 1 if j > 0 else m - 1
+        e[ne, 0] = sc[s0 + j, 0]
+        e[ne, 1] = sc[s0 + j, 1]
+        e[ne, 2] = sc[s0 + jb, 0]
+        e[ne, 3] = sc[s0 + jb, 1]
+        ne += 1
+        j = jb
+    return ne
 
 
 @kernel(B1(I64, I64, I64, I64, I64, I64), inline="always")
@@ -745,49 +813,53 @@ def _compare_one(rc, r0, n, sc, s0, m, anchor, wi, wf, ub, e):
         p = q
     d1 = _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc)
     d2 = _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub)
-    # neighbours that no line separates are merged into groups of consecutive
-    # runs, measured together by the sweep; group[t] numbers them
-    group = anchor  # the anchors are not needed any more
-    cut = -1
+    # runs that may overlap (neighbours no line separates, others too close)
+    # form components, each measured by one sweep over its pieces together
+    parent = anchor  # the anchors are not needed any more
+    for t in range(npc):
+        parent[t] = t
+    joined = 0
     for t in range(npc):
         tl = t - 1 if t > 0 else npc - 1
-        apart = (wi[_NI * t + _KIND] == 0 or wi[_NI * tl + _KIND] == 0
-                 or _neighbours_apart(rc, r0, n, sc, s0, m, wi, t, npc))
-        ub[t] = 1.0 if apart else 0.0
-        if apart and cut < 0:
-            cut = t
-    n_cut = 0
+        if (wi[_NI * t + _KIND] != 0 and wi[_NI * tl + _KIND] != 0
+                and not _neighbours_apart(rc, r0, n, sc, s0, m, wi, wf, t, npc)):
+            rt = _find(parent, t)
+            rl = _find(parent, tl)
+            if rt != rl:
+                parent[max(rt, rl)] = min(rt, rl)
+                joined += 1
+    if joined == npc - 1 or not _others_conflicts(rc, r0, n, sc, s0, m, wi, wf,
+                                                  parent, npc):
+        return d1, d2, _ring_area(rc, r0, n, sc, s0, m, e), False
+    lone = True
     for t in range(npc):
-        n_cut += ub[t] == 1.0
-    if n_cut < 2:  # one group holds every run: the whole ring
+        if _find(parent, t) != t:
+            lone = False
+    if lone:
+        return d1, d2, total, True
+    # components in root order: count, then each root's runs' edges together
+    start = np.zeros(npc + 1, np.int64)
+    for t in range(npc):
+        parent[t] = _find(parent, t)
+        start[parent[t] + 1] += 1
+    if start[1] == npc:
         return d1, d2, _ring_area(rc, r0, n, sc, s0, m, e), False
-    g = -1
-    t0 = cut
-    for i in range(npc + 1):
-        t = cut + i if cut + i < npc else cut + i - npc
-        if i == npc or ub[t] == 1.0:  # a group t0..t-1 ends here
-            if i > 0:
-                t1 = t - 1 if t > 0 else npc - 1
-                if t1 != t0:
-                    u = t0
-                    while True:
-                        total -= wf[_NF * u + _AREA]
-                        if u == t1:
-                            break
-                        u = u + 1 if u + 1 < npc else 0
-                    ap = wi[_NI * t0 + _AP]
-                    aq = wi[_NI * t1 + _AQ]
-                    if aq <= ap:
-                        aq += n
-                    total += _piece_area(rc, r0, n, sc, s0, m, wi[_NI * t0 + _P],
-                                         wi[_NI * t1 + _Q], ap, aq, e)
-            if i == npc:
-                break
-            g += 1
-            t0 = t
-        group[t] = g
-    if not _others_apart(rc, r0, n, sc, s0, m, wi, wf, group, npc):
-        return d1, d2, _ring_area(rc, r0, n, sc, s0, m, e), False
+    for t in range(npc):
+        start[t + 1] += start[t]
+    runs = np.empty(npc, np.int64)  # the runs of each root, in order
+    fill = start[:npc].copy()
+    for t in range(npc):
+        runs[fill[parent[t]]] = t
+        fill[parent[t]] += 1
+    for root in range(npc):
+        if start[root + 1] - start[root] < 2:
+            continue
+        ne = 0
+        for i in range(start[root], start[root + 1]):
+            t = runs[i]
+            total -= wf[_NF * t + _AREA]
+            ne = _add_run_edges(rc, r0, n, sc, s0, m, wi, t, root, e, ne)
+        total += winding_area(e, ne)
     return d1, d2, total, True
 
 

@@ -485,7 +485,9 @@ def _volume_below(vertices: NDArray[np.int64], faces: NDArray[np.int64],
     return total
 
 
-def volume_error(model: SlicedModel, mesh: Any) -> VolumeStats:
+def volume_error(
+    model: SlicedModel, mesh: Any, *, _mesh_volume: float | None = None
+) -> VolumeStats:
     """Staircase volume of ``model`` (area x thickness per layer) against ``mesh``.
 
     Parameters
@@ -536,7 +538,7 @@ def volume_error(model: SlicedModel, mesh: Any) -> VolumeStats:
     top = np.clip(model.print_z, 0, h)
     bottom = np.clip(model.print_z - model.thickness, 0, h)
     stair = float((model.layer_areas() * (top - bottom)).sum()) * 1e-9
-    vol = mesh.volume * 1e-9
+    vol = (mesh.volume if _mesh_volume is None else _mesh_volume) * 1e-9
     stack = int(model.print_z[-1]) if model.n_layers else 0
     ref = vol if stack >= h else _volume_below(mesh.vertices, mesh.faces,
                                                float(stack)) * 1e-9

@@ -64,20 +64,33 @@ def _with_rings(
     return _keep_rings(out, np.diff(ring_offsets) > 0)
 
 
+def _kept_loops(
+    loops: LayerPaths, minimum_circumference: int
+) -> tuple[NDArray[np.bool_], LayerPaths]:
+    """The perimeter filter: ``(keep, loops[keep])`` (µm perimeters, Cura's)."""
+    perimeter = ring_perimeters(loops.coords, loops.ring_offsets)
+    keep = perimeter >= minimum_circumference
+    return keep, _keep_rings(loops, keep)
+
+
 def _clean_closed(
-    loops: LayerPaths, s: SliceSettings
+    loops: LayerPaths,
+    s: SliceSettings,
+    kept: tuple[NDArray[np.bool_], LayerPaths] | None = None,
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """The closed-loop part of :func:`clean_loops`, one result ring per input ring.
 
     Returns ``(coords, ring_offsets)`` with ring ``i`` the cleaned loop ``i`` of
     ``loops``, empty where it was dropped (short perimeter, simplified away,
     degenerate): the correspondence that :mod:`vecslice.metrics` measures.
+    ``kept`` is :func:`_kept_loops`'s result, when the caller has it already.
     """
-    perimeter = ring_perimeters(loops.coords, loops.ring_offsets)
-    keep = perimeter >= s.minimum_polygon_circumference
-    kept = _keep_rings(loops, keep)
+    if kept is None:
+        kept = _kept_loops(loops, s.minimum_polygon_circumference)
+    keep, kept_loops = kept
+    kept = None
     coords, offsets = simplify_rings(
-        kept.coords, kept.ring_offsets, True, s.max_resolution,
+        kept_loops.coords, kept_loops.ring_offsets, True, s.max_resolution,
         s.max_deviation, s.max_area_deviation,
     )
     coords, offsets = remove_degenerate_vertices(coords, offsets)

@@ -217,7 +217,7 @@ def _prepare(source: Any, scale: float) -> _Prepared:
 
 
 def _variant(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
-             settings: SliceSettings) -> tuple[Any, Any]:
+             settings: SliceSettings, kept: Any = None) -> tuple[Any, Any]:
     """:func:`vecslice.slice_mesh`'s stages after the raw contours, and the errors.
 
     Returns ``(model, errors)``; ``model`` is what ``slice_mesh`` returns for
@@ -230,7 +230,7 @@ def _variant(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
     from vecslice.storage import SlicedModel
 
     slice_z, print_z, thickness = schedule
-    coords, offsets = _clean_closed(raw, settings)
+    coords, offsets = _clean_closed(raw, settings, kept)
     errors = contour_errors(
         LayerPaths._trusted(raw.coords, raw.ring_offsets, raw.layer_offsets),
         LayerPaths._trusted(coords, offsets, raw.layer_offsets.copy()),
@@ -252,6 +252,7 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
     """All rows of one (mesh, layer schedule) task."""
     from vecslice.layers import layer_heights
     from vecslice.metrics import move_stats, volume_error
+    from vecslice.pipeline import _kept_loops
     from vecslice.slicing import _contours
     from vecslice.stitch import stitch
 
@@ -267,13 +268,18 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
     except Exception as exc:
         return [_row(mesh_index, name, i, s, None, _describe(exc)) for i, s in combos]
     prep_seconds = prep.seconds + time.perf_counter() - t
+    kept: dict[int, Any] = {}  # perimeter filters, by minimum circumference
+    mesh_volume = mesh.volume
     for i, s in combos:
         t = time.perf_counter()
         try:
-            model, err = _variant(raw, stitched, schedule, s)
+            c = s.minimum_polygon_circumference
+            if c not in kept:
+                kept[c] = _kept_loops(raw, c)
+            model, err = _variant(raw, stitched, schedule, s, kept[c])
             moves = move_stats(model, speed_mm_s=speed, controller_ms=controller_ms,
                                percentiles=(1, 5, 50))
-            vol = volume_error(model, mesh)
+            vol = volume_error(model, mesh, _mesh_volume=mesh_volume)
         except Exception as exc:
             rows.append(_row(mesh_index, name, i, s, None, _describe(exc)))
             continue
