@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
-import reference_metrics as ref
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import reference_metrics as ref
 from vecslice._kernels.metrics import compare_rings, winding_area
 from vecslice._kernels.simplify import remove_degenerate_vertices, simplify_rings
 
