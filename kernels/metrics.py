@@ -5,27 +5,22 @@ when the ring was dropped). Simplification keeps the raw ring's vertex order: a
 simplified ring is a subsequence of its raw ring, except that the short-edge ->
 intersection rule moves some kept vertices. ``_match`` recovers that
 correspondence (the *anchor* of a simplified vertex is the raw vertex it equals,
-or -1 for a moved one), and both metrics use it only to be fast, never to be
-right:
+or -1 for a moved one), and both metrics use it to be fast, never to be right:
 
 * **Deviation** (largest distance from a vertex of one ring to the other ring).
-  The distance of a vertex to a ring is the minimum over the ring's edges of a
-  point-segment distance ``_point_segment`` (one float64 formula over exact int64
-  pieces). Candidate edges from the correspondence give an upper bound for every
-  vertex in linear time; the vertex with the largest bound is then measured
-  against *all* edges, and only vertices whose bound still exceeds the best exact
-  value are measured too. The result is exactly the maximum over all vertex-edge
-  pairs (the brute-force value), whatever the correspondence.
+  The distance of a vertex to a ring is the minimum over the ring's edges of one
+  float64 point-segment formula over exact int64 pieces (``planar``). Candidate
+  edges from the correspondence bound every vertex in one linear pass; the vertex
+  with the largest bound is measured against *all* edges, then only vertices whose
+  bound still exceeds the best exact value. The result is exactly the maximum over
+  all vertex-edge pairs (the brute force), whatever the correspondence.
 * **XOR area** ``∫ |w_raw - w_simp| dA`` (winding numbers; the area of the
-  symmetric difference for simple rings). Between consecutive anchored vertices
-  the raw chain and the simplified chain bound one *piece*; the pieces sum to
-  ``raw - simp`` as cycles. A piece's ``∫|w|`` is exact when its raw chain is
-  monotone along its chord (then it is ``∫ |h| dt``, split where the chain
-  crosses the chord) or the piece is a small simple polygon (``|shoelace|``). The
-  sum is the ring's XOR area when no two pieces overlap: neighbours must lie on
-  either side of a line through their shared vertex, other pieces far enough
-  apart (band test). Rings where any check fails are flagged for an exact boolean
-  fallback (the caller's).
+  symmetric difference for simple rings). The runs between consecutive anchored
+  vertices bound pieces (``pieces``) that sum to ``raw - simp`` as cycles. A
+  piece's ``∫|w|`` is ``∫ |h| dt`` along its chord when its raw chain is monotone
+  along it (split where the chain crosses the chord), else the sweep
+  (``planar.winding_area``). Pieces that may overlap are measured together by the
+  sweep; the whole ring pair is swept when too many may.
 
 Preconditions (the caller checks them): |coords| < 2**30; both offset arrays are
 valid and have the same number of rings.
@@ -36,52 +31,34 @@ from numba import prange, types
 
 from ._jit import kernel
 from ._types import B1, F64, I64, I64_1D, I64_2D
+from .pieces import (
+    _AP,
+    _AQ,
+    _AREA,
+    _H,
+    _KIND,
+    _KMAX,
+    _NF,
+    _NI,
+    _P,
+    _Q,
+    _UB,
+    _X0,
+    _X1,
+    _Y0,
+    _Y1,
+    _add_run_edges,
+    _find,
+    _neighbours_apart,
+    _others_conflicts,
+)
+from .planar import _point_segment, _to_ring, winding_area
 
 _W1 = types.int64[::1]
 _W2 = types.int64[:, ::1]
 _WF = types.float64[::1]
 _F64_OUT = types.float64[::1]
 _B1_OUT = types.boolean[::1]
-
-SMALL = 64  # largest piece (vertices) checked for simplicity in O(k^2)
-_SCALE = 1048576.0  # 2**20: integer bisector directions, products stay < 2**53
-_EXTENT = 1 << 26  # small pieces: shoelace terms < 2**53, sums of 64 fit int64
-
-
-@kernel(F64(I64, I64, I64, I64, I64, I64), inline="always")
-def _point_segment(px, py, ax, ay, bx, by):
-    """Distance from p to the closed segment a-b, µm (float64).
-
-    Which of the three cases applies is decided exactly in int64; the distance is
-    ``sqrt(float(d2))`` to an end point or ``|float(cross)| / sqrt(float(len2))``.
-    """
-    dx = bx - ax
-    dy = by - ay
-    qx = px - ax
-    qy = py - ay
-    dot = qx * dx + qy * dy
-    len2 = dx * dx + dy * dy
-    if dot <= 0 or len2 == 0:
-        return np.sqrt(np.float64(qx * qx + qy * qy))
-    if dot >= len2:
-        rx = px - bx
-        ry = py - by
-        return np.sqrt(np.float64(rx * rx + ry * ry))
-    cross = dx * qy - dy * qx
-    return abs(np.float64(cross)) / np.sqrt(np.float64(len2))
-
-
-@kernel(F64(I64, I64, I64_2D, I64, I64), inline="always")
-def _to_ring(px, py, c, start, n):
-    """Distance from p to ring ``c[start:start + n]`` (closed), all edges."""
-    best = np.inf
-    for i in range(n):
-        j = i + 1 if i + 1 < n else 0
-        d = _point_segment(px, py, c[start + i, 0], c[start + i, 1],
-                           c[start + j, 0], c[start + j, 1])
-        if d < best:
-            best = d
-    return best
 
 
 @kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1))
@@ -115,141 +92,6 @@ def _match(rc, r0, n, sc, s0, m, anchor):
                 break
             kk += 1
     return True
-
-
-@kernel(I64(I64, I64, I64, I64, I64, I64), inline="always")
-def _orient(ax, ay, bx, by, cx, cy):
-    """Sign of the turn a -> b -> c (exact)."""
-    v = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
-    if v > 0:
-        return np.int64(1)
-    if v < 0:
-        return np.int64(-1)
-    return np.int64(0)
-
-
-@kernel(F64(_W2, I64, F64), inline="always")
-def _y_at(e, i, x):
-    """Y of (non-vertical) edge ``e[i]`` at abscissa x."""
-    x0 = np.float64(e[i, 0])
-    y0 = np.float64(e[i, 1])
-    return y0 + (np.float64(e[i, 3]) - y0) * ((x - x0) / (np.float64(e[i, 2]) - x0))
-
-
-@kernel(F64(_W2, I64))
-def winding_area(e, ne):
-    """``∫ |w| dA`` (µm²) of the directed edges ``e[:ne]`` = (x0, y0, x1, y1).
-
-    The edges must form closed cycles; ``w`` is their winding number. A sweep over
-    x: the slabs between consecutive vertex and crossing abscissae hold no
-    crossing, so within a slab the edges are ordered by y and ``w`` is constant
-    between neighbours. Time O((E + I) * A log A) for E edges, I crossings and at
-    most A edges over one abscissa. Vertical edges bound no slab area and are
-    dropped (``e`` is compacted in place).
-    """
-    k = 0
-    for i in range(ne):
-        if e[i, 0] != e[i, 2]:
-            for c in range(4):
-                e[k, c] = e[i, c]
-            k += 1
-    ne = k
-    if ne == 0:
-        return 0.0
-    xmin = np.empty(ne, np.int64)
-    xmax = np.empty(ne, np.int64)
-    for i in range(ne):
-        xmin[i] = min(e[i, 0], e[i, 2])
-        xmax[i] = max(e[i, 0], e[i, 2])
-    order = np.argsort(xmin)
-    cap = 2 * ne + 16
-    ev = np.empty(cap, np.float64)
-    nev = 0
-    for i in range(ne):
-        ev[nev] = np.float64(e[i, 0])
-        ev[nev + 1] = np.float64(e[i, 2])
-        nev += 2
-    active = np.empty(ne, np.int64)
-    na = 0
-    for ii in range(ne):
-        f = order[ii]
-        c = 0
-        for a in range(na):
-            g = active[a]
-            if xmax[g] > xmin[f]:
-                active[c] = g
-                c += 1
-        na = c
-        ax = e[f, 0]
-        ay = e[f, 1]
-        bx = e[f, 2]
-        by = e[f, 3]
-        for a in range(na):
-            g = active[a]
-            cx = e[g, 0]
-            cy = e[g, 1]
-            dx = e[g, 2]
-            dy = e[g, 3]
-            if (_orient(ax, ay, bx, by, cx, cy) * _orient(ax, ay, bx, by, dx, dy) < 0
-                    and _orient(cx, cy, dx, dy, ax, ay)
-                    * _orient(cx, cy, dx, dy, bx, by) < 0):
-                rx = bx - ax
-                ry = by - ay
-                num = (cx - ax) * (dy - cy) - (cy - ay) * (dx - cx)
-                den = rx * (dy - cy) - ry * (dx - cx)
-                if nev == cap:
-                    cap *= 2
-                    grown = np.empty(cap, np.float64)
-                    grown[:nev] = ev[:nev]
-                    ev = grown
-                ev[nev] = np.float64(ax) + np.float64(rx) * (
-                    np.float64(num) / np.float64(den))
-                nev += 1
-        active[na] = f
-        na += 1
-    ev = np.sort(ev[:nev])
-    ym = np.empty(ne, np.float64)
-    total = 0.0
-    ptr = 0
-    na = 0
-    for s in range(nev - 1):
-        xa = ev[s]
-        xb = ev[s + 1]
-        if not xb > xa:
-            continue
-        while ptr < ne and np.float64(xmin[order[ptr]]) <= xa:
-            active[na] = order[ptr]
-            na += 1
-            ptr += 1
-        c = 0
-        for a in range(na):
-            g = active[a]
-            if np.float64(xmax[g]) > xa:
-                active[c] = g
-                c += 1
-        na = c
-        xm = 0.5 * (xa + xb)
-        for a in range(na):  # insertion sort by y at mid-slab (nearly sorted)
-            g = active[a]
-            y = _y_at(e, g, xm)
-            b = a
-            while b > 0 and ym[b - 1] > y:
-                ym[b] = ym[b - 1]
-                active[b] = active[b - 1]
-                b -= 1
-            ym[b] = y
-            active[b] = g
-        w = 0
-        acc = 0.0
-        for a in range(na - 1):
-            g = active[a]
-            w += 1 if e[g, 2] > e[g, 0] else -1
-            if w != 0:
-                h = active[a + 1]
-                acc += abs(w) * ((_y_at(e, h, xa) - _y_at(e, g, xa))
-                                 + (_y_at(e, h, xb) - _y_at(e, g, xb)))
-        total += acc * (xb - xa) * 0.5
-    return total
 
 
 @kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W2))
@@ -305,13 +147,6 @@ def _strip(dd, c0, c1):
     if (c0 >= 0 and c1 >= 0) or (c0 <= 0 and c1 <= 0):
         return np.float64(dd) * (f0 + f1) * 0.5
     return np.float64(dd) * (f0 * f0 + f1 * f1) / (2.0 * (f0 + f1))
-
-
-# per-run integer record in ``wi`` (_NI entries) and float record in ``wf`` (_NF)
-_P, _Q, _AP, _AQ, _KIND, _X0, _Y0, _X1, _Y1, _KMAX = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9
-_NI = 10
-_UB, _H, _AREA = 0, 1, 2
-_NF = 3
 
 
 @kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, _W2))
@@ -435,244 +270,6 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
     wf[_NF * t + _H] = h
     wf[_NF * t + _AREA] = area
     return area
-
-
-@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, B1, I64, I64, I64,
-           I64, I64))
-def _one_side(rc, r0, n, sc, s0, m, wi, wf, t, at_q, ox, oy, dx, dy, sigma):
-    """Every vertex v of run t has ``sigma * cross(d, v - o) >= 0``.
-
-    ``o`` is the run's end p (or q with ``at_q``). A monotone single-chord run
-    lies within H of its chord, its vertices ordered along it: scanning from
-    ``o`` stops once the distance along the chord alone keeps the rest on the
-    right side (float, with a safety margin; a vertex nearer is tested exactly).
-    """
-    b = _NI * t
-    p = wi[b + _P]
-    q = wi[b + _Q]
-    ap = wi[b + _AP]
-    aq = wi[b + _AQ]
-    reach = np.inf
-    ex = np.int64(0)
-    ey = np.int64(0)
-    if wi[b + _KIND] == 1:
-        far = q if not at_q else p
-        ex = sc[s0 + far, 0] - ox
-        ey = sc[s0 + far, 1] - oy
-        fd = np.float64(dx)
-        fe = np.float64(dy)
-        len_e = np.sqrt(np.float64(ex * ex + ey * ey))
-        a = sigma * (fd * np.float64(ey) - fe * np.float64(ex)) / len_e  # d x u
-        bb = abs(fd * np.float64(ex) + fe * np.float64(ey)) / len_e  # |d x n|
-        if a > 0.0:
-            # safe once dot(v - o, e) / |e| * a > H * bb
-            reach = wf[_NF * t + _H] * bb / a * len_e * (1.0 + 1e-9) + 1.0
-    for i in range(aq - ap + 1):
-        kk = aq - i if at_q else ap + i
-        k = kk if kk < n else kk - n
-        vx = rc[r0 + k, 0] - ox
-        vy = rc[r0 + k, 1] - oy
-        if sigma * (dx * vy - dy * vx) < 0:
-            return False
-        if reach < np.inf and np.float64(vx * ex + vy * ey) > reach:
-            return True
-    j = p + 1 if p + 1 < m else 0
-    while j != q:
-        v = dx * (sc[s0 + j, 1] - oy) - dy * (sc[s0 + j, 0] - ox)
-        if sigma * v < 0:
-            return False
-        j = j + 1 if j + 1 < m else 0
-    return True
-
-
-@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, I64))
-def _neighbours_apart(rc, r0, n, sc, s0, m, wi, wf, t, npc):
-    """Runs t-1 and t lie on either side of a line through their shared vertex.
-
-    The line is the bisector of the two simplified edges there, as an integer
-    direction; the test is exact (a run's piece lies in the convex hull of its
-    vertices).
-    """
-    tl = t - 1 if t > 0 else npc - 1
-    v = wi[_NI * t + _P]
-    vb = v - 1 if v > 0 else m - 1
-    va = v + 1 if v + 1 < m else 0
-    ox = sc[s0 + v, 0]
-    oy = sc[s0 + v, 1]
-    ux = np.float64(ox - sc[s0 + vb, 0])
-    uy = np.float64(oy - sc[s0 + vb, 1])
-    wx = np.float64(sc[s0 + va, 0] - ox)
-    wy = np.float64(sc[s0 + va, 1] - oy)
-    lu = np.sqrt(ux * ux + uy * uy)
-    lw = np.sqrt(wx * wx + wy * wy)
-    if lu == 0.0 or lw == 0.0:
-        return False
-    bx = ux / lu + wx / lw
-    by = uy / lu + wy / lw
-    lb = np.sqrt(bx * bx + by * by)
-    if lb < 1e-6:  # the ring reverses here: no separating line
-        return False
-    dx = np.int64(np.rint(-by / lb * _SCALE))
-    dy = np.int64(np.rint(bx / lb * _SCALE))
-    sb = dx * (sc[s0 + vb, 1] - oy) - dy * (sc[s0 + vb, 0] - ox)
-    sa = dx * (sc[s0 + va, 1] - oy) - dy * (sc[s0 + va, 0] - ox)
-    if sb == 0 or sa == 0 or (sb > 0) == (sa > 0):
-        return False
-    sigma = np.int64(1) if sb > 0 else np.int64(-1)
-    return (_one_side(rc, r0, n, sc, s0, m, wi, wf, tl, True, ox, oy, dx, dy, sigma)
-            and _one_side(rc, r0, n, sc, s0, m, wi, wf, t, False, ox, oy, dx, dy,
-                          -sigma))
-
-
-@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, I64))
-def _outside_band(rc, r0, n, sc, s0, m, wi, wf, t, u):
-    """All vertices of run t lie beyond one side of run u's band (|h| <= H_u)."""
-    bu = _NI * u
-    ax = sc[s0 + wi[bu + _P], 0]
-    ay = sc[s0 + wi[bu + _P], 1]
-    ex = sc[s0 + wi[bu + _Q], 0] - ax
-    ey = sc[s0 + wi[bu + _Q], 1] - ay
-    lim = wf[_NF * u + _H] * np.sqrt(np.float64(ex * ex + ey * ey)) * (1.0 + 1e-12)
-    bt = _NI * t
-    lo = np.inf
-    hi = -np.inf
-    for kk in range(wi[bt + _AP], wi[bt + _AQ] + 1):
-        k = kk if kk < n else kk - n
-        c = np.float64(ex * (rc[r0 + k, 1] - ay) - ey * (rc[r0 + k, 0] - ax))
-        lo = min(lo, c)
-        hi = max(hi, c)
-    j = wi[bt + _P]
-    while j != wi[bt + _Q]:
-        c = np.float64(ex * (sc[s0 + j, 1] - ay) - ey * (sc[s0 + j, 0] - ax))
-        lo = min(lo, c)
-        hi = max(hi, c)
-        j = j + 1 if j + 1 < m else 0
-    return lo > lim or hi < -lim
-
-
-@kernel(I64(_W1, I64), inline="always")
-def _find(parent, t):
-    """Root of t in the union-find forest ``parent`` (path halving)."""
-    while parent[t] != t:
-        parent[t] = parent[parent[t]]
-        t = parent[t]
-    return t
-
-
-@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, _W1, I64))
-def _others_conflicts(rc, r0, n, sc, s0, m, wi, wf, parent, npc):
-    """Join (in ``parent``) the runs that are not neighbours and may overlap.
-
-    A run with a single chord lies within ``H`` of it, any run in the convex
-    hull of its vertices: boxes first, then chords more than ``H_i + H_j``
-    apart, or one run's vertices all beyond the other's band, keep two runs
-    apart. Returns False when there are too many candidate pairs to test.
-    """
-    nz = 0
-    keys = np.empty(npc, np.int64)
-    idx = np.empty(npc, np.int64)
-    for t in range(npc):
-        if wi[_NI * t + _KIND] != 0:
-            keys[nz] = wi[_NI * t + _X0]
-            idx[nz] = t
-            nz += 1
-    order = np.argsort(keys[:nz])
-    budget = 8 * npc + 64
-    for a in range(nz):
-        ti = idx[order[a]]
-        bi = _NI * ti
-        for c in range(a + 1, nz):
-            tj = idx[order[c]]
-            bj = _NI * tj
-            if wi[bj + _X0] > wi[bi + _X1]:
-                break
-            dt = abs(ti - tj)
-            if dt == 1 or dt == npc - 1:
-                continue
-            if wi[bj + _Y0] > wi[bi + _Y1] or wi[bi + _Y0] > wi[bj + _Y1]:
-                continue
-            budget -= 1
-            if budget < 0:
-                return False
-            ri = _find(parent, ti)
-            rj = _find(parent, tj)
-            if ri == rj:
-                continue
-            hi = wf[_NF * ti + _H]
-            hj = wf[_NF * tj + _H]
-            if hi < np.inf and hj < np.inf:
-                d = _segment_distance(
-                    sc[s0 + wi[bi + _P], 0], sc[s0 + wi[bi + _P], 1],
-                    sc[s0 + wi[bi + _Q], 0], sc[s0 + wi[bi + _Q], 1],
-                    sc[s0 + wi[bj + _P], 0], sc[s0 + wi[bj + _P], 1],
-                    sc[s0 + wi[bj + _Q], 0], sc[s0 + wi[bj + _Q], 1],
-                )
-                if d > (hi + hj) * (1.0 + 1e-12):
-                    continue
-            if hj < np.inf and _outside_band(rc, r0, n, sc, s0, m, wi, wf, ti, tj):
-                continue
-            if hi < np.inf and _outside_band(rc, r0, n, sc, s0, m, wi, wf, tj, ti):
-                continue
-            parent[max(ri, rj)] = min(ri, rj)
-    return True
-
-
-@kernel(I64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, I64, I64, _W2, I64))
-def _add_run_edges(rc, r0, n, sc, s0, m, wi, t, root, e, ne):
-    """Append run t's piece (raw ap..aq, simplified q back to p) to ``e``."""
-    b = _NI * t
-    p = wi[b + _P]
-    q = wi[b + _Q]
-    for kk in range(wi[b + _AP], wi[b + _AQ]):
-        k = kk if kk < n else kk - n
-        k1 = k + 1 if k + 1 < n else 0
-        e[ne, 0] = rc[r0 + k, 0]
-        e[ne, 1] = rc[r0 + k, 1]
-        e[ne, 2] = rc[r0 + k1, 0]
-        e[ne, 3] = rc[r0 + k1, 1]
-        ne += 1
-    j = q
-    while j != p:
-        jb = j - 1 if j > 0 else m - 1
-        e[ne, 0] = sc[s0 + j, 0]
-        e[ne, 1] = sc[s0 + j, 1]
-        e[ne, 2] = sc[s0 + jb, 0]
-        e[ne, 3] = sc[s0 + jb, 1]
-        ne += 1
-        j = jb
-    return ne
-
-
-@kernel(B1(I64, I64, I64, I64, I64, I64), inline="always")
-def _on_box(ax, ay, bx, by, cx, cy):
-    """C (collinear with a-b) lies on the closed segment a-b."""
-    return (min(ax, bx) <= cx <= max(ax, bx)) and (min(ay, by) <= cy <= max(ay, by))
-
-
-@kernel(B1(I64, I64, I64, I64, I64, I64, I64, I64), inline="always")
-def _touch(ax, ay, bx, by, cx, cy, dx, dy):
-    """Closed segments a-b and c-d share a point (exact)."""
-    o1 = _orient(ax, ay, bx, by, cx, cy)
-    o2 = _orient(ax, ay, bx, by, dx, dy)
-    o3 = _orient(cx, cy, dx, dy, ax, ay)
-    o4 = _orient(cx, cy, dx, dy, bx, by)
-    if o1 * o2 < 0 and o3 * o4 < 0:
-        return True
-    return ((o1 == 0 and _on_box(ax, ay, bx, by, cx, cy))
-            or (o2 == 0 and _on_box(ax, ay, bx, by, dx, dy))
-            or (o3 == 0 and _on_box(cx, cy, dx, dy, ax, ay))
-            or (o4 == 0 and _on_box(cx, cy, dx, dy, bx, by)))
-
-
-@kernel(F64(I64, I64, I64, I64, I64, I64, I64, I64), inline="always")
-def _segment_distance(ax, ay, bx, by, cx, cy, dx, dy):
-    """Distance between closed segments a-b and c-d, µm (0 if they touch)."""
-    if _touch(ax, ay, bx, by, cx, cy, dx, dy):
-        return 0.0
-    d = _point_segment(ax, ay, cx, cy, dx, dy)
-    d = min(d, _point_segment(bx, by, cx, cy, dx, dy))
-    d = min(d, _point_segment(cx, cy, ax, ay, bx, by))
-    return min(d, _point_segment(dx, dy, ax, ay, bx, by))
 
 
 @kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64))

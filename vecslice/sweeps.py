@@ -432,7 +432,7 @@ def sweep(
     0  box             200      18        72               0.0
     1  box             500      18        72               0.0
     """
-    from vecslice.metrics import _check_number
+    from vecslice.moves import _check_number
 
     pd, dask = _require()
     items = _sources(meshes)

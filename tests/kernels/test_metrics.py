@@ -4,7 +4,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import reference_metrics as ref
-from vecslice._kernels.metrics import compare_rings, winding_area
+from vecslice._kernels.metrics import compare_rings
+from vecslice._kernels.planar import winding_area
 from vecslice._kernels.simplify import remove_degenerate_vertices, simplify_rings
 
 
