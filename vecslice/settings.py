@@ -7,7 +7,7 @@ from difflib import get_close_matches
 from typing import Literal
 
 from vecslice._validate import check_int, check_option
-from vecslice.errors import InputTypeError
+from vecslice.errors import InputTypeError, SettingsError
 
 __all__ = ["SLICING_TOLERANCES", "SliceSettings"]
 
@@ -38,11 +38,27 @@ class SliceSettings:
     union_overlapping_volumes : bool, default True
         Union the loops of a layer with the NonZero rule (overlapping bodies merge);
         ``False`` uses EvenOdd.
+    adaptive_layers : bool, default False
+        Use CuraEngine's adaptive layer heights (Cura
+        ``adaptive_layer_height_enabled``) instead of the uniform schedule; see
+        :func:`vecslice.layer_heights`.
+    adaptive_variation : int, default 100
+        Adaptive layers are ``layer_height ± adaptive_variation`` µm thick (Cura
+        ``adaptive_layer_height_variation``), ``>= 0``.
+    adaptive_variation_step : int, default 10
+        Spacing of the allowed adaptive heights in µm (Cura
+        ``adaptive_layer_height_variation_step``), ``> 0``.
+    adaptive_threshold : int, default 200
+        Largest allowed stair-step width ``height / tan(slope)`` in µm (Cura
+        ``adaptive_layer_height_threshold``, "Topography Size"); ``<= 0`` makes
+        every layer on a non-flat surface the thinnest allowed.
 
     Raises
     ------
     SettingsError
-        A height is not positive, a threshold is negative or the tolerance is unknown.
+        A height is not positive, a threshold is negative, the tolerance is unknown,
+        the adaptive step is not positive or the adaptive variation leaves no
+        allowed height.
     """
 
     layer_height: int = 100
@@ -53,6 +69,10 @@ class SliceSettings:
     max_area_deviation: int = 50000
     minimum_polygon_circumference: int = 1000
     union_overlapping_volumes: bool = True
+    adaptive_layers: bool = False
+    adaptive_variation: int = 100
+    adaptive_variation_step: int = 10
+    adaptive_threshold: int = 200
 
     def __init__(
         self,
@@ -65,6 +85,10 @@ class SliceSettings:
         max_area_deviation: int = 50000,
         minimum_polygon_circumference: int = 1000,
         union_overlapping_volumes: bool = True,
+        adaptive_layers: bool = False,
+        adaptive_variation: int = 100,
+        adaptive_variation_step: int = 10,
+        adaptive_threshold: int = 200,
         **unknown: object,
     ) -> None:
         if unknown:
@@ -94,12 +118,30 @@ class SliceSettings:
                       maximum=2**62)
         object.__setattr__(self, "max_area_deviation", v)
         check_option(self.slicing_tolerance, SLICING_TOLERANCES, "slicing_tolerance")
-        if not isinstance(self.union_overlapping_volumes, bool):
-            raise InputTypeError(
-                "`union_overlapping_volumes` must be a bool; got "
-                f"{type(self.union_overlapping_volumes).__name__} "
-                f"{self.union_overlapping_volumes!r}"
+        for name in ("union_overlapping_volumes", "adaptive_layers"):
+            value = getattr(self, name)
+            if not isinstance(value, bool):
+                raise InputTypeError(
+                    f"`{name}` must be a bool; got {type(value).__name__} {value!r}"
+                )
+        self._check_adaptive(limit)
+
+    def _check_adaptive(self, limit: int) -> None:
+        # ADAPTIVE.md section 1: a step <= 0 never ends CuraEngine's list of allowed
+        # heights; a negative variation leaves it empty (undefined behaviour there)
+        step = check_int(self.adaptive_variation_step, "adaptive_variation_step",
+                         minimum=1, maximum=limit)
+        v = check_int(self.adaptive_variation, "adaptive_variation", maximum=limit)
+        if v < 0:
+            raise SettingsError(
+                "`adaptive_variation` must be >= 0 (from layer_height + variation "
+                f"down to layer_height - variation no height is allowed); got {v}"
             )
+        t = check_int(self.adaptive_threshold, "adaptive_threshold",
+                      minimum=-limit, maximum=limit)
+        for name, value in (("adaptive_variation_step", step),
+                            ("adaptive_variation", v), ("adaptive_threshold", t)):
+            object.__setattr__(self, name, value)
 
     def replace(self, **changes: object) -> SliceSettings:
         """A copy with some settings changed (validated like the constructor)."""

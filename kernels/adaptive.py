@@ -1,0 +1,163 @@
+"""Kernels of CuraEngine's adaptive layer heights (spec/ADAPTIVE.md).
+
+Bit-exactness: every float operation below is one IEEE float64 operation in the
+spec's order. Kernels never use fastmath, so LLVM neither reassociates nor fuses a
+multiply and an add into an FMA (``tests/kernels/test_adaptive.py`` checks the
+machine code); ``math.acos``/``math.tan`` call the platform libm, as CuraEngine does.
+"""
+
+import math
+
+import numpy as np
+from numba import types
+
+from ._jit import kernel
+from ._types import B1, F64_1D, F64_1D_OUT, I64, I64_1D_OUT, I64_2D, I64_2D_OUT
+
+TAU = 2.0 * math.pi  # 6.283185307179586, the period of CuraEngine's angle type
+FLAT = math.fmod(math.fmod(math.pi, TAU) + TAU, TAU)  # == math.pi
+DBL_MAX = 1.7976931348623157e308
+
+
+@kernel(types.Tuple((I64_2D_OUT, F64_1D_OUT))(I64_2D, I64_2D, I64))
+def face_slopes(vertices, faces, dz):
+    """Per face: integer z range and the float64 slope of spec section 3.
+
+    Face ``f`` gets ``face_z[f] = (zmin, zmax)`` of its corners' ``z - dz`` (µm) and
+    ``slope[f]`` in radians: the angle between the face and the horizontal plane,
+    computed in millimetres from the shifted corners, wrapped into [0, 2 pi), with
+    exactly 0 replaced by pi (a horizontal face) and NaN for a zero-area face.
+
+    Preconditions: 0 <= faces < len(vertices); |vertices|, |dz| < 2**30.
+    """
+    n = faces.shape[0]
+    face_z = np.empty((n, 2), dtype=np.int64)
+    slope = np.empty(n, dtype=np.float64)
+    for f in range(n):
+        i0, i1, i2 = faces[f, 0], faces[f, 1], faces[f, 2]
+        z0 = vertices[i0, 2] - dz
+        z1 = vertices[i1, 2] - dz
+        z2 = vertices[i2, 2] - dz
+        face_z[f, 0] = min(z0, min(z1, z2))
+        face_z[f, 1] = max(z0, max(z1, z2))
+        # millimetres: multiply by the double 0.001 (not divide by 1000)
+        x0 = float(vertices[i0, 0]) * 0.001
+        y0 = float(vertices[i0, 1]) * 0.001
+        w0 = float(z0) * 0.001
+        ax = float(vertices[i1, 0]) * 0.001 - x0
+        ay = float(vertices[i1, 1]) * 0.001 - y0
+        az = float(z1) * 0.001 - w0
+        bx = float(vertices[i2, 0]) * 0.001 - x0
+        by = float(vertices[i2, 1]) * 0.001 - y0
+        bz = float(z2) * 0.001 - w0
+        nx = ay * bz - az * by
+        ny = az * bx - ax * bz
+        nz = ax * by - ay * bx
+        length = math.sqrt((nx * nx + ny * ny) + nz * nz)
+        if length == 0.0:
+            slope[f] = np.nan  # 0 / 0 in CuraEngine
+            continue
+        a = math.acos(abs(nz / length))
+        # CuraEngine wraps the angle into [0, 2 pi): fmod(fmod(a, TAU) + TAU, TAU).
+        # For 0 <= a <= pi/2 (acos of a value in [0, 1]) the inner fmod is a itself
+        # and x = a + TAU lies in [TAU, 2 TAU), so fmod(x, TAU) = x - TAU, which is
+        # exact (Sterbenz: TAU <= x <= 2 TAU). Same bits, without two libm fmods.
+        s = (a + TAU) - TAU
+        slope[f] = FLAT if s == 0.0 else s
+    return face_z, slope
+
+
+@kernel(
+    types.Tuple((I64_1D_OUT, I64_1D_OUT))(I64_2D, F64_1D, I64, I64, I64, I64, I64, B1)
+)
+def adaptive_layers(face_z, slope, first, hmax, hmin, step, threshold, middle):
+    """CuraEngine's adaptive layer loop (spec section 4): ``(thickness, top)``.
+
+    The allowed heights are ``hmax, hmax - step, ..., hmin``. Layer 0 is
+    ``(first, first)``; layers are added while the last top is <= the highest face
+    z, and at least two. A candidate ``h`` inspects the faces whose z range meets
+    ``[z, z + h // 2]`` (``middle``) or ``[z, z + h]``.
+
+    Active window (spec section 10): the faces meeting ``[z, z + band(hmax)]`` in
+    ``zmin`` order, with a running minimum of their slopes (NaN ignored, starting
+    at DBL_MAX), so the band of any candidate is a prefix of the window. The
+    candidates more than one step thicker than the previous layer are skipped
+    arithmetically: they would be skipped anyway, and if the band of one of them
+    were empty so would be the band of the first candidate tested (bands shrink).
+
+    Preconditions: ``face_z`` (F, 2) ``[zmin, zmax]`` rows sorted by ``zmin``,
+    F >= 1; ``slope`` aligned with it; ``first > 0``; ``0 < hmin <= hmax`` and
+    ``(hmax - hmin) % step == 0``; ``step > 0``; all values below 2**31 in size.
+    """
+    n_faces = face_z.shape[0]
+    max_z = face_z[0, 1]
+    for f in range(1, n_faces):
+        max_z = max(max_z, face_z[f, 1])
+    reach = hmax // 2 if middle else hmax
+    last = (hmax - hmin) // step  # index of hmin
+    limit = float(threshold)
+    cap = 64
+    thickness = np.empty(cap, dtype=np.int64)
+    top = np.empty(cap, dtype=np.int64)
+    thickness[0] = first
+    top[0] = first
+    n = 1
+    window = np.empty(n_faces, dtype=np.int64)  # face indices, zmin order
+    win_zmin = np.empty(n_faces, dtype=np.int64)
+    prefix_min = np.empty(n_faces, dtype=np.float64)
+    n_win = 0
+    nxt = 0
+    z = first
+    prev = first
+    while z <= max_z or n < 2:
+        kept = 0
+        for j in range(n_win):  # drop faces that ended below z
+            if face_z[window[j], 1] >= z:
+                window[kept] = window[j]
+                kept += 1
+        n_win = kept
+        while nxt < n_faces and face_z[nxt, 0] <= z + reach:
+            if face_z[nxt, 1] >= z:
+                window[n_win] = nxt
+                n_win += 1
+            nxt += 1
+        m = DBL_MAX
+        for j in range(n_win):
+            s = slope[window[j]]
+            if s < m:  # NaN never compares smaller
+                m = s
+            prefix_min[j] = m
+            win_zmin[j] = face_z[window[j], 0]
+        i = 0
+        if hmax - prev - step > 0:  # skip candidates more than a step thicker
+            i = min((hmax - prev - 1) // step, last)
+        chosen = hmin
+        while i <= last:
+            h = hmax - i * step
+            band_top = z + (h // 2 if middle else h)
+            k = np.searchsorted(win_zmin[:n_win], band_top, side="right")
+            if k == 0:
+                break  # empty band: hmin
+            exceeded = prev > h and prev - h > step
+            if not exceeded and h - prev > step and h > hmin:
+                i += 1
+                continue
+            t = math.tan(prefix_min[k - 1])
+            if t == 0.0 or float(h) / t <= limit or h == hmin or exceeded:
+                chosen = h
+                break
+            i += 1
+        z += chosen
+        prev = chosen
+        if n == cap:
+            cap *= 2
+            grown = np.empty(cap, dtype=np.int64)
+            grown[:n] = thickness
+            thickness = grown
+            grown = np.empty(cap, dtype=np.int64)
+            grown[:n] = top
+            top = grown
+        thickness[n] = chosen
+        top[n] = z
+        n += 1
+    return thickness[:n].copy(), top[:n].copy()
