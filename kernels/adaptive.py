@@ -9,17 +9,30 @@ machine code); ``math.acos``/``math.tan`` call the platform libm, as CuraEngine 
 import math
 
 import numpy as np
-from numba import types
+from numba import prange, types
 
 from ._jit import kernel
-from ._types import B1, F64_1D, F64_1D_OUT, I64, I64_1D_OUT, I64_2D, I64_2D_OUT
+from ._types import B1, F64_1D, F64_1D_OUT, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 
 TAU = 2.0 * math.pi  # 6.283185307179586, the period of CuraEngine's angle type
 FLAT = math.fmod(math.fmod(math.pi, TAU) + TAU, TAU)  # == math.pi
 DBL_MAX = 1.7976931348623157e308
 
 
-@kernel(types.Tuple((I64_2D_OUT, F64_1D_OUT))(I64_2D, I64_2D, I64))
+@kernel(I64(I64_2D, I64_2D))
+def lowest_corner_z(vertices, faces):
+    """The lowest z of any face corner (vertices no face uses do not count).
+
+    Preconditions: at least one face; 0 <= faces < len(vertices).
+    """
+    lowest = vertices[faces[0, 0], 2]
+    for f in range(faces.shape[0]):
+        for j in range(3):
+            lowest = min(lowest, vertices[faces[f, j], 2])
+    return lowest
+
+
+@kernel(types.Tuple((I64_2D_OUT, F64_1D_OUT))(I64_2D, I64_2D, I64), parallel=True)
 def face_slopes(vertices, faces, dz):
     """Per face: integer z range and the float64 slope of spec section 3.
 
@@ -33,7 +46,7 @@ def face_slopes(vertices, faces, dz):
     n = faces.shape[0]
     face_z = np.empty((n, 2), dtype=np.int64)
     slope = np.empty(n, dtype=np.float64)
-    for f in range(n):
+    for f in prange(n):
         i0, i1, i2 = faces[f, 0], faces[f, 1], faces[f, 2]
         z0 = vertices[i0, 2] - dz
         z1 = vertices[i1, 2] - dz
@@ -56,15 +69,44 @@ def face_slopes(vertices, faces, dz):
         length = math.sqrt((nx * nx + ny * ny) + nz * nz)
         if length == 0.0:
             slope[f] = np.nan  # 0 / 0 in CuraEngine
-            continue
-        a = math.acos(abs(nz / length))
-        # CuraEngine wraps the angle into [0, 2 pi): fmod(fmod(a, TAU) + TAU, TAU).
-        # For 0 <= a <= pi/2 (acos of a value in [0, 1]) the inner fmod is a itself
-        # and x = a + TAU lies in [TAU, 2 TAU), so fmod(x, TAU) = x - TAU, which is
-        # exact (Sterbenz: TAU <= x <= 2 TAU). Same bits, without two libm fmods.
-        s = (a + TAU) - TAU
-        slope[f] = FLAT if s == 0.0 else s
+        else:
+            a = math.acos(abs(nz / length))
+            # CuraEngine wraps the angle into [0, 2 pi): fmod(fmod(a, TAU) + TAU,
+            # TAU). For 0 <= a <= pi/2 (acos of a value in [0, 1]) the inner fmod
+            # is a itself and x = a + TAU lies in [TAU, 2 TAU), so fmod(x, TAU) is
+            # x - TAU, which is exact (Sterbenz: TAU <= x <= 2 TAU). Same bits,
+            # without two libm fmods.
+            s = (a + TAU) - TAU
+            slope[f] = FLAT if s == 0.0 else s
     return face_z, slope
+
+
+@kernel(I64_1D_OUT(I64_1D))
+def zmin_order(zmin):
+    """A permutation sorting ``zmin`` ascending (stable).
+
+    A counting sort when the values span at most ``4 * len + 1024`` (any sliceable
+    model: its faces start within a few times their number of µm), else a merge
+    sort.
+
+    Preconditions: len(zmin) >= 1; |zmin| < 2**62.
+    """
+    n = zmin.shape[0]
+    lo = zmin.min()
+    span = zmin.max() - lo + 1
+    if span > 4 * n + 1024:
+        return np.argsort(zmin, kind="mergesort")
+    start = np.zeros(span + 1, dtype=np.int64)
+    for f in range(n):
+        start[zmin[f] - lo + 1] += 1
+    for k in range(span):
+        start[k + 1] += start[k]
+    order = np.empty(n, dtype=np.int64)
+    for f in range(n):
+        k = zmin[f] - lo
+        order[start[k]] = f
+        start[k] += 1
+    return order
 
 
 @kernel(
@@ -75,24 +117,34 @@ def adaptive_layers(face_z, slope, first, hmax, hmin, step, threshold, middle):
 
     The allowed heights are ``hmax, hmax - step, ..., hmin``. Layer 0 is
     ``(first, first)``; layers are added while the last top is <= the highest face
-    z, and at least two. A candidate ``h`` inspects the faces whose z range meets
-    ``[z, z + h // 2]`` (``middle``) or ``[z, z + h]``.
+    z, and at least two. A candidate ``h`` inspects the faces whose z range
+    ``face_z[f] = (zmin, zmax)`` meets ``[z, z + h // 2]`` (``middle``) or
+    ``[z, z + h]``, and the smallest of their ``slope`` (NaN ignored).
 
-    Active window (spec section 10): the faces meeting ``[z, z + band(hmax)]`` in
-    ``zmin`` order, with a running minimum of their slopes (NaN ignored, starting
-    at DBL_MAX), so the band of any candidate is a prefix of the window. The
-    candidates more than one step thicker than the previous layer are skipped
-    arithmetically: they would be skipped anyway, and if the band of one of them
-    were empty so would be the band of the first candidate tested (bands shrink).
+    Active window (spec section 10): the faces, sorted by zmin, that meet
+    ``[z, z + band(hmax)]``, kept in zmin order, so the band of any candidate is a
+    prefix of the window; a running minimum of their slopes (starting at DBL_MAX)
+    is extended only as far as a candidate needs. The candidates more than one
+    step thicker than the previous layer are skipped arithmetically: they would
+    be skipped anyway, and if the band of one of them were empty so would be the
+    band of the first candidate tested (bands shrink with ``h``).
 
-    Preconditions: ``face_z`` (F, 2) ``[zmin, zmax]`` rows sorted by ``zmin``,
-    F >= 1; ``slope`` aligned with it; ``first > 0``; ``0 < hmin <= hmax`` and
-    ``(hmax - hmin) % step == 0``; ``step > 0``; all values below 2**31 in size.
+    Preconditions: F >= 1 faces in any order, ``zmin <= zmax``; ``slope`` aligned
+    with ``face_z``; ``first > 0``; ``0 < hmin <= hmax`` and ``(hmax - hmin) %
+    step == 0``; ``step > 0``; all values below 2**31 in size.
     """
     n_faces = face_z.shape[0]
+    order = zmin_order(face_z[:, 0].copy())
+    zmin = np.empty(n_faces, dtype=np.int64)
+    zmax = np.empty(n_faces, dtype=np.int64)
+    slopes = np.empty(n_faces, dtype=np.float64)
     max_z = face_z[0, 1]
-    for f in range(1, n_faces):
-        max_z = max(max_z, face_z[f, 1])
+    for k in range(n_faces):
+        f = order[k]
+        zmin[k] = face_z[f, 0]
+        zmax[k] = face_z[f, 1]
+        slopes[k] = slope[f]
+        max_z = max(max_z, zmax[k])
     reach = hmax // 2 if middle else hmax
     last = (hmax - hmin) // step  # index of hmin
     limit = float(threshold)
@@ -102,8 +154,7 @@ def adaptive_layers(face_z, slope, first, hmax, hmin, step, threshold, middle):
     thickness[0] = first
     top[0] = first
     n = 1
-    window = np.empty(n_faces, dtype=np.int64)  # face indices, zmin order
-    win_zmin = np.empty(n_faces, dtype=np.int64)
+    window = np.empty(n_faces, dtype=np.int64)  # positions in zmin order, ascending
     prefix_min = np.empty(n_faces, dtype=np.float64)
     n_win = 0
     nxt = 0
@@ -112,22 +163,17 @@ def adaptive_layers(face_z, slope, first, hmax, hmin, step, threshold, middle):
     while z <= max_z or n < 2:
         kept = 0
         for j in range(n_win):  # drop faces that ended below z
-            if face_z[window[j], 1] >= z:
+            if zmax[window[j]] >= z:
                 window[kept] = window[j]
                 kept += 1
         n_win = kept
-        while nxt < n_faces and face_z[nxt, 0] <= z + reach:
-            if face_z[nxt, 1] >= z:
+        while nxt < n_faces and zmin[nxt] <= z + reach:
+            if zmax[nxt] >= z:
                 window[n_win] = nxt
                 n_win += 1
             nxt += 1
+        n_min = 0  # prefix_min[:n_min] is valid
         m = DBL_MAX
-        for j in range(n_win):
-            s = slope[window[j]]
-            if s < m:  # NaN never compares smaller
-                m = s
-            prefix_min[j] = m
-            win_zmin[j] = face_z[window[j], 0]
         i = 0
         if hmax - prev - step > 0:  # skip candidates more than a step thicker
             i = min((hmax - prev - 1) // step, last)
@@ -135,13 +181,21 @@ def adaptive_layers(face_z, slope, first, hmax, hmin, step, threshold, middle):
         while i <= last:
             h = hmax - i * step
             band_top = z + (h // 2 if middle else h)
-            k = np.searchsorted(win_zmin[:n_win], band_top, side="right")
+            # the band: window faces with zmin <= band_top, i.e. position < stop
+            stop = np.searchsorted(zmin[:nxt], band_top, side="right")
+            k = np.searchsorted(window[:n_win], stop, side="left")
             if k == 0:
                 break  # empty band: hmin
             exceeded = prev > h and prev - h > step
             if not exceeded and h - prev > step and h > hmin:
                 i += 1
                 continue
+            while n_min < k:
+                s = slopes[window[n_min]]
+                if s < m:  # NaN never compares smaller
+                    m = s
+                prefix_min[n_min] = m
+                n_min += 1
             t = math.tan(prefix_min[k - 1])
             if t == 0.0 or float(h) / t <= limit or h == hmin or exceeded:
                 chosen = h

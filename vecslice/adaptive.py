@@ -13,7 +13,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from vecslice._kernels.adaptive import adaptive_layers
+from vecslice._kernels.adaptive import adaptive_layers, lowest_corner_z
 from vecslice._kernels.adaptive import face_slopes as _face_slopes
 from vecslice._validate import check_int, check_option
 from vecslice.errors import InputTypeError, SettingsError
@@ -93,7 +93,7 @@ def _shift(mesh: Mesh, frame: str) -> int:
         return 0
     # the lowest corner of any face: CuraEngine's vertex list holds no vertex
     # without a face
-    return int(mesh.vertices[:, 2][mesh.faces].min())
+    return int(lowest_corner_z(mesh.vertices, mesh.faces))
 
 
 def face_slopes(
@@ -229,10 +229,9 @@ def adaptive_layer_heights(
     hmax, hmin = _height_range(s.layer_height, s.adaptive_variation,
                                s.adaptive_variation_step)
     face_z, slope = _face_slopes(m.vertices, m.faces, dz)
-    order = np.argsort(face_z[:, 0])  # any order of equal zmin will do
     thickness, top = adaptive_layers(
-        np.ascontiguousarray(face_z[order]), slope[order], s.initial_layer_height,
-        hmax, hmin, s.adaptive_variation_step, s.adaptive_threshold,
+        face_z, slope, s.initial_layer_height, hmax, hmin,
+        s.adaptive_variation_step, s.adaptive_threshold,
         s.slicing_tolerance == "middle",
     )
     return top + dz, top, thickness

@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice._validate import check_int
+from vecslice.adaptive import adaptive_layer_heights
 from vecslice.errors import InputTypeError
 from vecslice.settings import SliceSettings
 
@@ -165,8 +166,6 @@ def layer_heights(
             f"`mesh` must be a vecslice.Mesh; got {type(mesh).__name__}"
         )
     if settings.adaptive_layers:
-        from vecslice.adaptive import adaptive_layer_heights  # needs Mesh
-
         return adaptive_layer_heights(mesh, settings)
     zmin = int(verts[:, 2].min())
     zmax = int(verts[:, 2].max())

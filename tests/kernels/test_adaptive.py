@@ -8,7 +8,13 @@ import reference_adaptive as ref
 from hypothesis import given
 from hypothesis import strategies as st
 
-from vecslice._kernels.adaptive import TAU, adaptive_layers, face_slopes
+from vecslice._kernels.adaptive import (
+    TAU,
+    adaptive_layers,
+    face_slopes,
+    lowest_corner_z,
+    zmin_order,
+)
 
 
 def _hex(values):
@@ -85,6 +91,21 @@ def test_wrap_shortcut_is_cura_fmod(a):
     # face_slopes writes CuraEngine's fmod(fmod(a, TAU) + TAU, TAU) as
     # (a + TAU) - TAU, exact for a in [0, pi/2] (Sterbenz); both give the same bits
     assert ((a + TAU) - TAU).hex() == math.fmod(math.fmod(a, TAU) + TAU, TAU).hex()
+
+
+@given(triangles())
+def test_lowest_corner_z_ignores_unused_vertices(case):
+    verts, faces, _ = case
+    used = np.unique(faces)
+    assert lowest_corner_z(verts, faces) == verts[used, 2].min()
+
+
+@given(st.lists(st.integers(-2000, 2000), min_size=1, max_size=40),
+       st.sampled_from([0, 10**6, -(2**40)]))
+def test_zmin_order_is_a_stable_sort(values, spread):
+    # a wide spread takes the merge sort, a narrow one the counting sort
+    z = np.array([*values, spread][: len(values) + (spread != 0)], dtype=np.int64)
+    assert zmin_order(z).tolist() == np.argsort(z, kind="stable").tolist()
 
 
 def _fresh_asm(kernel):
@@ -184,6 +205,16 @@ def test_layer_loop_invariants(c):
     # the last layer ends above the highest face; the one before does not
     assert top[-1] > c["face_z"][:, 1].max()
     assert len(top) == 2 or top[-2] <= c["face_z"][:, 1].max()
+
+
+@given(face_tables(), st.integers(10**4, 10**9))
+def test_a_face_far_below_the_bed_counts_like_any_other(c, depth):
+    # a zmin spread beyond the counting sort's range takes the other sort
+    c["face_z"] = np.vstack([c["face_z"], [[-depth, -depth + 5]]])
+    c["slope"] = np.append(c["slope"], 0.1)
+    thickness, top = _run_kernel(c)
+    assert list(zip(thickness.tolist(), top.tolist(), strict=True)) == (
+        _run_reference(c))
 
 
 def test_layer_buffer_grows_past_its_first_allocation():
