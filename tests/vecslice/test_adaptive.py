@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import reference_adaptive as ref
 import trimesh
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import vecslice as vs
@@ -199,6 +199,52 @@ def test_translation_in_z_moves_slice_z_only(mesh, s, dz):
     z0, p0, t0 = vs.layer_heights(mesh, s)
     z1, p1, t1 = vs.layer_heights(moved, s)
     assert (z1 == z0 + dz).all() and (p1 == p0).all() and (t1 == t0).all()
+
+
+@st.composite
+def printable_models(draw):
+    """Small trimesh primitives, randomly rotated and placed, a few mm tall."""
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    kind = draw(st.sampled_from(["box", "icosphere", "cylinder", "cone", "capsule"]))
+    if kind == "box":
+        m = trimesh.creation.box(rng.uniform(1, 6, 3))
+    elif kind == "icosphere":
+        m = trimesh.creation.icosphere(subdivisions=1, radius=rng.uniform(1, 4))
+    elif kind == "cylinder":
+        m = trimesh.creation.cylinder(rng.uniform(1, 4), rng.uniform(1, 6),
+                                      sections=int(rng.integers(3, 24)))
+    elif kind == "cone":
+        m = trimesh.creation.cone(rng.uniform(1, 6), rng.uniform(0.5, 6),
+                                  sections=int(rng.integers(3, 24)))
+    else:
+        m = trimesh.creation.capsule(rng.uniform(1, 4), rng.uniform(0.5, 2),
+                                     count=[8, 8])
+    if draw(st.booleans()):
+        m.apply_transform(trimesh.transformations.random_rotation_matrix(
+            rng.random(3)))
+    m.apply_translation(rng.uniform(-50, 50, 3))
+    return vs.load_mesh(m)
+
+
+@st.composite
+def print_settings(draw):
+    base = draw(st.integers(50, 300))
+    variation = draw(st.integers(0, base - 20))
+    return vs.SliceSettings(
+        adaptive_layers=True, layer_height=base,
+        initial_layer_height=draw(st.integers(50, 400)),
+        adaptive_variation=variation,
+        adaptive_variation_step=draw(st.integers(5, 60)),
+        adaptive_threshold=draw(st.integers(-50, 400)),
+        slicing_tolerance=draw(st.sampled_from(vs.settings.SLICING_TOLERANCES)),
+    )
+
+
+@settings(max_examples=25)
+@given(printable_models(), print_settings(), st.sampled_from(["mesh", "bed"]))
+def test_matches_reference_on_printable_models(mesh, s, frame):
+    got = adaptive_layer_heights(mesh, s, frame=frame)
+    assert [a.tolist() for a in got] == _reference(mesh, s, frame)
 
 
 def test_unused_vertices_do_not_count():
