@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from vecslice._kernels.adaptive import adaptive_layers, lowest_corner_z
 from vecslice._kernels.adaptive import face_slopes as _face_slopes
 from vecslice._validate import check_int, check_option
-from vecslice.errors import InputTypeError, SettingsError
+from vecslice.errors import InputTypeError
 from vecslice.mesh import Mesh
 from vecslice.settings import SliceSettings
 
@@ -29,14 +29,13 @@ Schedule = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]
 
 
 def _height_range(layer_height: int, variation: int, step: int) -> tuple[int, int]:
-    """``(hmax, hmin)`` of the allowed heights, without listing them."""
+    """``(hmax, hmin)`` of the allowed heights, without listing them.
+
+    The values are validated: ``layer_height >= 1``, ``variation >= 0`` and
+    ``step >= 1``, so the list is never empty.
+    """
     hmax = layer_height + variation
     lowest = max(layer_height - variation, 1)  # heights <= 0 are never allowed
-    if step <= 0 or hmax < lowest:
-        raise SettingsError(
-            f"`adaptive_variation` and `adaptive_variation_step` must allow at least "
-            f"one height; got variation {variation}, step {step}"
-        )
     return hmax, hmax - (hmax - lowest) // step * step
 
 
@@ -203,6 +202,14 @@ def adaptive_layer_heights(
     than the previous layer are skipped, and no face in the band means the
     thinnest height. Layers are added while the last top is <= the model's top,
     and at least two. See spec/ADAPTIVE.md for every rounding and tie.
+
+    Where the frames differ from CuraEngine's: the 'mesh' frame shifts z only, so
+    the slopes are computed from the shifted z and the given x, y (CuraEngine uses
+    the mesh's placement on the build plate; a different placement can change the
+    last bit of a slope and, at a tie, a layer). CuraEngine pools the faces of all
+    model meshes of a group into one schedule; here that is one ``Mesh`` (combine
+    the meshes first). Exactness holds per platform, as for CuraEngine itself
+    (x86-64, glibc ``acos``/``tan``, no FMA).
 
     Examples
     --------
