@@ -9,7 +9,7 @@ Two passes, both from ``spec/CURA_COMPAT.md`` section 2:
 """
 
 import numpy as np
-from numba import prange
+from numba import prange, types
 
 from ._jit import kernel
 from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
@@ -87,7 +87,7 @@ def _third(faces, g, a, b):
 
 
 @kernel(
-    I64(I64_2D, I64_2D, I64, I64, I64, I64_1D, I64, I64),
+    I64(I64_2D, I64_2D, I64, I64, I64, types.int64[::1], I64, I64),
 )
 def _smallest_angle(vertices, faces, f, a, b, half, lo, hi):
     """CuraEngine's choice among several faces across edge a -> b of face ``f``.
@@ -139,18 +139,49 @@ def _smallest_angle(vertices, faces, f, a, b, half, lo, hi):
     return best
 
 
-@kernel(I64_2D_OUT(I64_2D, I64_2D, I64_1D, I64_1D), parallel=True)
-def face_neighbours(vertices, faces, half, edge_offsets):
+@kernel(types.Tuple((I64_1D_OUT, I64_1D_OUT))(I64_2D, I64))
+def vertex_faces(faces, n_vertices):
+    """The faces around every vertex, in face order (CuraEngine's ``connected_faces_``).
+
+    Returns ``(offsets, items)``: vertex ``v``'s faces are
+    ``items[offsets[v]:offsets[v + 1]]`` (a stable counting sort).
+    """
+    n_faces = faces.shape[0]
+    offsets = np.zeros(n_vertices + 1, dtype=np.int64)
+    for f in range(n_faces):
+        for j in range(3):
+            offsets[faces[f, j] + 1] += 1
+    for v in range(n_vertices):
+        offsets[v + 1] += offsets[v]
+    fill = offsets[:-1].copy()
+    items = np.empty(3 * n_faces, dtype=np.int64)
+    for f in range(n_faces):
+        for j in range(3):
+            v = faces[f, j]
+            items[fill[v]] = f
+            fill[v] += 1
+    return offsets, items
+
+
+@kernel(inline="always")
+def _other_end(faces, h, v):
+    """The end of half-edge ``h`` (corner j -> j + 1 of face h // 3) that is not v."""
+    f = h // 3
+    j = h - 3 * f
+    a = faces[f, j]
+    return faces[f, (j + 1) % 3] if a == v else a
+
+
+@kernel(I64_2D_OUT(I64_2D, I64_2D), parallel=True)
+def face_neighbours(vertices, faces):
     """CuraEngine's ``connected_face_index``: the face across each face edge.
 
     Entry ``[f, j]`` is the face across edge ``j`` of face ``f`` (edge 0 runs
     from corner 0 to 1, edge 1 from 1 to 2, edge 2 from 2 to 0), or -1 where no
-    other face has that edge. ``half`` lists the half-edges ``3 * f + j`` grouped
-    by undirected edge, in increasing ``h`` within a group (so in face order, the
-    order of CuraEngine's per-vertex face lists); group ``i`` is
-    ``half[edge_offsets[i]:edge_offsets[i + 1]]``.
+    other face has that edge. The candidates are the other faces containing both
+    ends, in face order (CuraEngine scans the first end's ``connected_faces_``).
 
-    One other face: that face, whatever its vertex order. Several (a non-manifold
+    One candidate: that face, whatever its vertex order. Several (a non-manifold
     edge a -> b): the one with the smallest angle ``atan2(n . (n0 x n1), n0 . n1)``
     in [0, 2 pi), where ``n`` is the unit vector a -> b, ``v0 = b - a``,
     ``n0 = (w - a) x v0`` with ``w`` the third vertex of face ``f``, and
@@ -158,25 +189,73 @@ def face_neighbours(vertices, faces, half, edge_offsets):
     taken in integer µm, then converted to mm (/ 1000) in double precision; the
     first candidate in face order wins a tie.
 
-    Preconditions: faces have three distinct vertices; |vertices| < 2**30.
+    Half-edges are bucketed by their smaller vertex (a stable counting sort), and
+    each bucket is sorted by the other vertex (insertion sort, or a stable argsort
+    for buckets over 32), so no vertex costs more than O(d log d).
+
+    Preconditions: faces have three distinct vertices in [0, V); |vertices| <
+    2**30.
     """
     n_faces = faces.shape[0]
+    n_vertices = vertices.shape[0]
+    n_half = 3 * n_faces
+    offsets = np.zeros(n_vertices + 1, dtype=np.int64)
+    for h in range(n_half):
+        f = h // 3
+        j = h - 3 * f
+        offsets[min(faces[f, j], faces[f, (j + 1) % 3]) + 1] += 1
+    for v in range(n_vertices):
+        offsets[v + 1] += offsets[v]
+    fill = offsets[:-1].copy()
+    items = np.empty(n_half, dtype=np.int64)
+    for h in range(n_half):
+        f = h // 3
+        j = h - 3 * f
+        v = min(faces[f, j], faces[f, (j + 1) % 3])
+        items[fill[v]] = h
+        fill[v] += 1
     out = np.full((n_faces, 3), -1, dtype=np.int64)
-    n_edges = edge_offsets.shape[0] - 1
-    for e in prange(n_edges):
-        lo = edge_offsets[e]
-        hi = edge_offsets[e + 1]
-        if hi - lo == 2:
-            h0 = half[lo]
-            h1 = half[lo + 1]
-            out[h0 // 3, h0 % 3] = h1 // 3
-            out[h1 // 3, h1 % 3] = h0 // 3
-        elif hi - lo > 2:
-            for k in range(lo, hi):
-                h = half[k]
-                f = h // 3
-                j = h % 3
-                a = faces[f, j]
-                b = faces[f, (j + 1) % 3]
-                out[f, j] = _smallest_angle(vertices, faces, f, a, b, half, lo, hi)
+    for v in prange(n_vertices):
+        lo = offsets[v]
+        hi = offsets[v + 1]
+        d = hi - lo
+        if d < 2:
+            continue
+        other = np.empty(d, dtype=np.int64)
+        for i in range(d):
+            other[i] = _other_end(faces, items[lo + i], v)
+        if d <= 32:  # stable insertion sort by the other end
+            half = items[lo:hi].copy()
+            for i in range(1, d):
+                ko = other[i]
+                kh = half[i]
+                m = i - 1
+                while m >= 0 and other[m] > ko:
+                    other[m + 1] = other[m]
+                    half[m + 1] = half[m]
+                    m -= 1
+                other[m + 1] = ko
+                half[m + 1] = kh
+        else:
+            perm = np.argsort(other, kind="mergesort")
+            half = items[lo:hi][perm]
+            other = other[perm]
+        a = 0
+        while a < d:
+            b = a + 1
+            while b < d and other[b] == other[a]:
+                b += 1
+            if b - a == 2:
+                h0 = half[a]
+                h1 = half[a + 1]
+                out[h0 // 3, h0 % 3] = h1 // 3
+                out[h1 // 3, h1 % 3] = h0 // 3
+            elif b - a > 2:
+                for i in range(a, b):
+                    h = half[i]
+                    f = h // 3
+                    j = h % 3
+                    out[f, j] = _smallest_angle(vertices, faces, f, faces[f, j],
+                                                faces[f, (j + 1) % 3], half, a, b)
+            a = b
     return out

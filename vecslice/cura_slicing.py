@@ -1,0 +1,161 @@
+"""CuraEngine's slicer, end to end up to the union: ``SliceSettings(compat="cura")``.
+
+The stages of ``spec/CURA_COMPAT.md`` sections 3, 4 and 6, each returning
+:class:`CuraLayers` so tests can compare them with CuraEngine's own output:
+
+* :func:`cura_raw` -- per-face segments, ``makeBasicPolygonLoops``,
+  ``connectOpenPolylines`` and ``stitch`` (the ``raw`` stage);
+* :func:`cura_clean` -- circumference filter, simplification and degenerate
+  vertices (the ``simp`` stage, CuraEngine's ``makePolygons`` result);
+* :func:`cura_before_union` -- the open-polyline stitcher of
+  ``createLayerWithParts`` (the ``before_union`` stage).
+
+:func:`vecslice.slice_mesh` chains them when ``settings.compat == "cura"``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vecslice._kernels.cura_loops import basic_loops
+from vecslice._kernels.cura_mesh import face_neighbours, vertex_faces
+from vecslice._kernels.cura_segments import order_by_layer, slot_segments
+from vecslice.paths import LayerPaths
+from vecslice.slicing import _check_mesh, _check_slice_z
+
+__all__ = ["CuraLayers", "cura_raw"]
+
+_NO_COMPENSATION = -(2**62)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class CuraLayers:
+    """Polygons per layer at one stage of CuraEngine's slicer, with their flags.
+
+    Attributes
+    ----------
+    polygons : LayerPaths
+        Closed polygons per layer, in CuraEngine's order; ``polygons.open`` holds
+        the open polylines of the stage.
+    explicit : ndarray of shape (R,), bool
+        Per polygon: explicitly closed (its last point repeats the first, within
+        10 µm for loops closed by the mesh topology; a loop closed by stitching
+        ends where the last chain ended).
+    stats : ndarray of shape (L, 3), int64 or None
+        Per layer (raw stage only): segments, loops closed by topology, open chains
+        before stitching.
+    """
+
+    polygons: LayerPaths
+    explicit: NDArray[np.bool_]
+    stats: NDArray[np.int64] | None = None
+
+
+def _face_ranges(
+    vertices: NDArray[np.int64], faces: NDArray[np.int64], z: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """First plane and slot offsets of every face: planes with zmin <= z < zmax."""
+    fz = vertices[:, 2][faces]
+    lo = np.searchsorted(z, fz.min(axis=1), side="left").astype(np.int64)
+    hi = np.searchsorted(z, fz.max(axis=1), side="left").astype(np.int64)
+    offsets = np.zeros(faces.shape[0] + 1, dtype=np.int64)
+    np.cumsum(hi - lo, out=offsets[1:])
+    return lo, offsets
+
+
+def _rings_from_order(
+    points: NDArray[np.int64],
+    seg_order: NDArray[np.int64],
+    ring_start: NDArray[np.bool_],
+    seg_layer: NDArray[np.int64],
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """Ring points (first start, then every end), ring offsets and ring layers."""
+    n = seg_order.shape[0]
+    starts = np.flatnonzero(ring_start)
+    ring_of = np.cumsum(ring_start) - 1
+    coords = np.empty((n + starts.shape[0], 2), dtype=np.int64)
+    coords[np.arange(n) + ring_of + 1] = points[seg_order, 2:4]
+    coords[starts + np.arange(starts.shape[0])] = points[seg_order[starts], 0:2]
+    ring_offsets = np.append(starts + np.arange(starts.shape[0]), coords.shape[0])
+    return coords, ring_offsets.astype(np.int64), seg_layer[seg_order[starts]]
+
+
+def _by_layer(
+    coords: NDArray[np.int64],
+    ring_offsets: NDArray[np.int64],
+    ring_layer: NDArray[np.int64],
+    keep: NDArray[np.bool_],
+    n_layers: int,
+) -> LayerPaths:
+    """The rings where ``keep``, in order, grouped by their (non-decreasing) layer."""
+    idx = np.flatnonzero(keep)
+    lens = (ring_offsets[1:] - ring_offsets[:-1])[idx]
+    new_offsets = np.zeros(idx.shape[0] + 1, dtype=np.int64)
+    np.cumsum(lens, out=new_offsets[1:])
+    items = np.repeat(ring_offsets[idx] - new_offsets[:-1], lens) + np.arange(
+        new_offsets[-1], dtype=np.int64)
+    layer_offsets = np.zeros(n_layers + 1, dtype=np.int64)
+    np.cumsum(np.bincount(ring_layer[idx], minlength=n_layers), out=layer_offsets[1:])
+    return LayerPaths._trusted(
+        np.ascontiguousarray(coords[items]), new_offsets, layer_offsets
+    )
+
+
+def cura_raw(
+    mesh: Any, slice_z: ArrayLike, *, compensate_below: int | None = None
+) -> CuraLayers:
+    """CuraEngine's polygons of every plane before its circumference filter.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        Best loaded with ``load_mesh(path, compat="cura")``; any mesh is sliced
+        as given.
+    slice_z : array_like of shape (L,), int
+        Plane heights in µm, sorted (non-decreasing).
+    compensate_below : int, optional
+        Vertices exactly on a plane lower than this (µm) are moved down 1 µm
+        first; default: the mesh's lowest z + 1 (CuraEngine: planes at z <= 0 with
+        the mesh on the bed). ``slicing_tolerance='inclusive'`` passes no
+        compensation.
+
+    Returns
+    -------
+    CuraLayers
+        Explicitly closed loops and stitched polygons; ``.polygons.open`` holds
+        the polylines left open.
+    """
+    vertices, faces = _check_mesh(mesh, True)
+    z = _check_slice_z(slice_z)
+    n_layers = z.shape[0]
+    if np.any(z[1:] < z[:-1]):
+        raise ValueError("`slice_z` must be sorted")
+    limit = (int(vertices[:, 2].min()) + 1 if compensate_below is None
+             else compensate_below)
+    neighbours = face_neighbours(vertices, faces)
+    vf_offsets, vf_faces = vertex_faces(faces, vertices.shape[0])
+    face_lo, slot_offsets = _face_ranges(vertices, faces, z)
+    slots, links, valid = slot_segments(vertices, faces, neighbours, z, face_lo,
+                                        slot_offsets, limit)
+    layer_offsets, seg_slot, slot_seg = order_by_layer(valid, face_lo, slot_offsets,
+                                                       n_layers)
+    points = slots[seg_slot]
+    seg_order, ring_start, closed = basic_loops(
+        points, links[seg_slot], layer_offsets, face_lo, slot_offsets, slot_seg,
+        vf_offsets, vf_faces,
+    )
+    seg_layer = np.repeat(np.arange(n_layers, dtype=np.int64), np.diff(layer_offsets))
+    coords, ring_offsets, ring_layer = _rings_from_order(points, seg_order,
+                                                         ring_start, seg_layer)
+    is_closed = closed[ring_start]
+    loops = _by_layer(coords, ring_offsets, ring_layer, is_closed, n_layers)
+    chains = _by_layer(coords, ring_offsets, ring_layer, ~is_closed, n_layers)
+    stats = np.stack([np.diff(layer_offsets), loops.rings_per_layer(),
+                      chains.rings_per_layer()], axis=1)
+    polygons = LayerPaths._trusted(loops.coords, loops.ring_offsets,
+                                   loops.layer_offsets, chains)
+    return CuraLayers(polygons, np.ones(loops.n_rings, dtype=bool), stats)
