@@ -24,12 +24,20 @@ from numpy.typing import ArrayLike, NDArray
 from vecslice._kernels.cura_loops import basic_loops
 from vecslice._kernels.cura_mesh import face_neighbours, vertex_faces
 from vecslice._kernels.cura_segments import order_by_layer, slot_segments
+from vecslice._kernels.cura_stitch import connect_open_polylines
+from vecslice.errors import InputValueError
 from vecslice.paths import LayerPaths
 from vecslice.slicing import _check_mesh, _check_slice_z
 
 __all__ = ["CuraLayers", "cura_raw"]
 
-_NO_COMPENSATION = -(2**62)
+NO_COMPENSATION = -(2**62)
+"""``compensate_below`` value that disables the on-plane compensation."""
+
+# connectOpenPolylinesImpl calls of SlicerLayer::makePolygons: (max_dist, cell,
+# allow_reverse) = largest_neglected_gap_second_phase with cell 2 * first phase,
+# then max_stitch1 = MM2INT(10.0) with reversal
+STITCH_ROUNDS = np.array([[20, 20, 0], [10_000, 10_000, 1]], dtype=np.int64)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -45,9 +53,9 @@ class CuraLayers:
         Per polygon: explicitly closed (its last point repeats the first, within
         10 µm for loops closed by the mesh topology; a loop closed by stitching
         ends where the last chain ended).
-    stats : ndarray of shape (L, 3), int64 or None
+    stats : ndarray of shape (L, 4), int64 or None
         Per layer (raw stage only): segments, loops closed by topology, open chains
-        before stitching.
+        before stitching, joins and closures made by stitching.
     """
 
     polygons: LayerPaths
@@ -105,6 +113,23 @@ def _by_layer(
     )
 
 
+def concat_layers(a: LayerPaths, b: LayerPaths) -> LayerPaths:
+    """Per layer, the rings of ``a`` followed by the rings of ``b`` (same layers)."""
+    coords = np.concatenate([a.coords, b.coords])
+    ring_offsets = np.concatenate([a.ring_offsets[:-1],
+                                   b.ring_offsets + a.coords.shape[0]])
+    key = np.concatenate([2 * a.ring_layer(), 2 * b.ring_layer() + 1])
+    order = np.argsort(key, kind="stable")
+    starts = ring_offsets[order]
+    lens = np.diff(np.append(ring_offsets, coords.shape[0]))[order]
+    new_offsets = np.zeros(order.shape[0] + 1, dtype=np.int64)
+    np.cumsum(lens, out=new_offsets[1:])
+    items = np.repeat(starts - new_offsets[:-1], lens) + np.arange(
+        new_offsets[-1], dtype=np.int64)
+    return LayerPaths._trusted(np.ascontiguousarray(coords[items]), new_offsets,
+                               a.layer_offsets + b.layer_offsets)
+
+
 def cura_raw(
     mesh: Any, slice_z: ArrayLike, *, compensate_below: int | None = None
 ) -> CuraLayers:
@@ -132,8 +157,13 @@ def cura_raw(
     vertices, faces = _check_mesh(mesh, True)
     z = _check_slice_z(slice_z)
     n_layers = z.shape[0]
-    if np.any(z[1:] < z[:-1]):
-        raise ValueError("`slice_z` must be sorted")
+    bad = np.flatnonzero(z[1:] < z[:-1])
+    if bad.size:
+        i = int(bad[0])
+        raise InputValueError(
+            f"`slice_z` must be sorted (non-decreasing); got {z[i]} > {z[i + 1]} at "
+            f"index {i}"
+        )
     limit = (int(vertices[:, 2].min()) + 1 if compensate_below is None
              else compensate_below)
     neighbours = face_neighbours(vertices, faces)
@@ -154,8 +184,15 @@ def cura_raw(
     is_closed = closed[ring_start]
     loops = _by_layer(coords, ring_offsets, ring_layer, is_closed, n_layers)
     chains = _by_layer(coords, ring_offsets, ring_layer, ~is_closed, n_layers)
-    stats = np.stack([np.diff(layer_offsets), loops.rings_per_layer(),
-                      chains.rings_per_layer()], axis=1)
+    stitched = np.zeros(n_layers, dtype=np.int64)
+    n_open = chains.rings_per_layer()
+    if chains.n_rings:
+        cc, cr, cl, oc, orr, ol, stitched = connect_open_polylines(
+            chains.coords, chains.ring_offsets, chains.layer_offsets, STITCH_ROUNDS)
+        loops = concat_layers(loops, LayerPaths._trusted(cc, cr, cl))
+        chains = LayerPaths._trusted(oc, orr, ol)
+    n_loops = np.bincount(ring_layer[is_closed], minlength=n_layers)
+    stats = np.stack([np.diff(layer_offsets), n_loops, n_open, stitched], axis=1)
     polygons = LayerPaths._trusted(loops.coords, loops.ring_offsets,
                                    loops.layer_offsets, chains)
     return CuraLayers(polygons, np.ones(loops.n_rings, dtype=bool), stats)
