@@ -86,15 +86,21 @@ def _third(faces, g, a, b):
     return faces[g, 0]
 
 
+@kernel(inline="always")
+def _has(faces, g, v):
+    """Whether face ``g`` has vertex ``v``."""
+    return faces[g, 0] == v or faces[g, 1] == v or faces[g, 2] == v
+
+
 @kernel(
-    I64(I64_2D, I64_2D, I64, I64, I64, types.int64[::1], I64, I64),
+    I64(I64_2D, I64_2D, I64, I64, I64, I64_1D, I64, I64),
 )
-def _smallest_angle(vertices, faces, f, a, b, half, lo, hi):
+def _smallest_angle(vertices, faces, f, a, b, cands, lo, hi):
     """CuraEngine's choice among several faces across edge a -> b of face ``f``.
 
-    Candidates are the faces of half-edges ``half[lo:hi]`` (sorted by face) other
-    than ``f``; the winner has the smallest angle in [0, 2 pi) from face ``f``
-    (first one on a tie).
+    Candidates are the faces ``cands[lo:hi]`` (in face order) other than ``f``
+    that contain ``a`` and ``b``; the winner has the smallest angle in [0, 2 pi)
+    from face ``f`` (first one on a tie).
     """
     w = _third(faces, f, a, b)
     v0x = (vertices[b, 0] - vertices[a, 0]) / 1000.0
@@ -114,8 +120,8 @@ def _smallest_angle(vertices, faces, f, a, b, half, lo, hi):
     best = -1
     best_angle = 1000.0
     for k in range(lo, hi):
-        g = half[k] // 3
-        if g == f:
+        g = cands[k]
+        if g == f or not (_has(faces, g, a) and _has(faces, g, b)):
             continue
         t = _third(faces, g, a, b)
         qx = (vertices[t, 0] - vertices[a, 0]) / 1000.0
@@ -163,23 +169,39 @@ def vertex_faces(faces, n_vertices):
     return offsets, items
 
 
-@kernel(inline="always")
-def _other_end(faces, h, v):
-    """The end of half-edge ``h`` (corner j -> j + 1 of face h // 3) that is not v."""
-    f = h // 3
-    j = h - 3 * f
-    a = faces[f, j]
-    return faces[f, (j + 1) % 3] if a == v else a
+@kernel(
+    I64(I64_2D, I64_2D, I64, I64, I64, I64_1D, I64_1D),
+)
+def _across(vertices, faces, f, a, b, vf_offsets, vf_faces):
+    """The face across edge a -> b of face ``f``, or -1 (``getFaceIdxWithPoints``)."""
+    # the faces with both ends are in both ends' lists: scan the shorter one
+    lo = vf_offsets[a]
+    hi = vf_offsets[a + 1]
+    if vf_offsets[b + 1] - vf_offsets[b] < hi - lo:
+        lo = vf_offsets[b]
+        hi = vf_offsets[b + 1]
+    found = -1
+    count = 0
+    for i in range(lo, hi):
+        g = vf_faces[i]
+        if g != f and _has(faces, g, a) and _has(faces, g, b):
+            count += 1
+            found = g
+    if count <= 1:
+        return found
+    return _smallest_angle(vertices, faces, f, a, b, vf_faces, lo, hi)
 
 
-@kernel(I64_2D_OUT(I64_2D, I64_2D), parallel=True)
-def face_neighbours(vertices, faces):
+@kernel(I64_2D_OUT(I64_2D, I64_2D, I64_1D, I64_1D), parallel=True)
+def face_neighbours(vertices, faces, vf_offsets, vf_faces):
     """CuraEngine's ``connected_face_index``: the face across each face edge.
 
     Entry ``[f, j]`` is the face across edge ``j`` of face ``f`` (edge 0 runs
     from corner 0 to 1, edge 1 from 1 to 2, edge 2 from 2 to 0), or -1 where no
     other face has that edge. The candidates are the other faces containing both
-    ends, in face order (CuraEngine scans the first end's ``connected_faces_``).
+    ends, in face order (CuraEngine scans the first end's ``connected_faces_``;
+    here the shorter of the two ends' lists from :func:`vertex_faces`, which
+    holds the same faces in the same order).
 
     One candidate: that face, whatever its vertex order. Several (a non-manifold
     edge a -> b): the one with the smallest angle ``atan2(n . (n0 x n1), n0 . n1)``
@@ -189,73 +211,13 @@ def face_neighbours(vertices, faces):
     taken in integer µm, then converted to mm (/ 1000) in double precision; the
     first candidate in face order wins a tie.
 
-    Half-edges are bucketed by their smaller vertex (a stable counting sort), and
-    each bucket is sorted by the other vertex (insertion sort, or a stable argsort
-    for buckets over 32), so no vertex costs more than O(d log d).
-
     Preconditions: faces have three distinct vertices in [0, V); |vertices| <
-    2**30.
+    2**30; ``vf_offsets``, ``vf_faces`` from :func:`vertex_faces`.
     """
     n_faces = faces.shape[0]
-    n_vertices = vertices.shape[0]
-    n_half = 3 * n_faces
-    offsets = np.zeros(n_vertices + 1, dtype=np.int64)
-    for h in range(n_half):
-        f = h // 3
-        j = h - 3 * f
-        offsets[min(faces[f, j], faces[f, (j + 1) % 3]) + 1] += 1
-    for v in range(n_vertices):
-        offsets[v + 1] += offsets[v]
-    fill = offsets[:-1].copy()
-    items = np.empty(n_half, dtype=np.int64)
-    for h in range(n_half):
-        f = h // 3
-        j = h - 3 * f
-        v = min(faces[f, j], faces[f, (j + 1) % 3])
-        items[fill[v]] = h
-        fill[v] += 1
-    out = np.full((n_faces, 3), -1, dtype=np.int64)
-    for v in prange(n_vertices):
-        lo = offsets[v]
-        hi = offsets[v + 1]
-        d = hi - lo
-        if d < 2:
-            continue
-        other = np.empty(d, dtype=np.int64)
-        for i in range(d):
-            other[i] = _other_end(faces, items[lo + i], v)
-        if d <= 32:  # stable insertion sort by the other end
-            half = items[lo:hi].copy()
-            for i in range(1, d):
-                ko = other[i]
-                kh = half[i]
-                m = i - 1
-                while m >= 0 and other[m] > ko:
-                    other[m + 1] = other[m]
-                    half[m + 1] = half[m]
-                    m -= 1
-                other[m + 1] = ko
-                half[m + 1] = kh
-        else:
-            perm = np.argsort(other, kind="mergesort")
-            half = items[lo:hi][perm]
-            other = other[perm]
-        a = 0
-        while a < d:
-            b = a + 1
-            while b < d and other[b] == other[a]:
-                b += 1
-            if b - a == 2:
-                h0 = half[a]
-                h1 = half[a + 1]
-                out[h0 // 3, h0 % 3] = h1 // 3
-                out[h1 // 3, h1 % 3] = h0 // 3
-            elif b - a > 2:
-                for i in range(a, b):
-                    h = half[i]
-                    f = h // 3
-                    j = h % 3
-                    out[f, j] = _smallest_angle(vertices, faces, f, faces[f, j],
-                                                faces[f, (j + 1) % 3], half, a, b)
-            a = b
+    out = np.empty((n_faces, 3), dtype=np.int64)
+    for f in prange(n_faces):
+        for j in range(3):
+            out[f, j] = _across(vertices, faces, f, faces[f, j], faces[f, (j + 1) % 3],
+                                vf_offsets, vf_faces)
     return out

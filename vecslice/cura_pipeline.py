@@ -9,7 +9,7 @@ returns every stage; :func:`vecslice.slice_mesh` uses the same functions.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,7 +30,16 @@ from vecslice.parts import apply_slicing_tolerance, make_parts
 from vecslice.paths import LayerPaths
 from vecslice.settings import SliceSettings
 
-__all__ = ["WALL_LINE_WIDTH_0", "cura_before_union", "cura_clean", "cura_stages"]
+if TYPE_CHECKING:
+    from vecslice.storage import SlicedModel
+
+__all__ = [
+    "WALL_LINE_WIDTH_0",
+    "cura_before_union",
+    "cura_clean",
+    "cura_stages",
+    "slice_mesh_cura",
+]
 
 WALL_LINE_WIDTH_0 = 400
 """Cura's default ``wall_line_width_0`` (µm): the open-polyline stitcher's reach."""
@@ -168,16 +177,45 @@ def cura_stages(mesh: Any, settings: SliceSettings) -> dict[str, Any]:
     slice_z, print_z, thickness = layer_heights(mesh, settings)
     raw = cura_raw_for(mesh, slice_z, settings)
     simp = cura_clean(raw, settings)
-    tol = apply_slicing_tolerance(simp.polygons, settings.slicing_tolerance)
-    if tol is not simp.polygons:
-        simp_t = CuraLayers(tol, np.zeros(tol.n_rings, dtype=bool))
-    else:
-        simp_t = simp
-    before = cura_before_union(simp_t, settings)
+    before = cura_before_union(_tolerance(simp, settings.slicing_tolerance), settings)
     parts = make_parts(before.polygons,
                        union_overlapping_volumes=settings.union_overlapping_volumes)
     return {"slice_z": slice_z, "print_z": print_z, "thickness": thickness,
             "raw": raw, "simp": simp, "before_union": before, "parts": parts}
+
+
+def _tolerance(simp: CuraLayers, mode: str) -> CuraLayers:
+    """CuraEngine's slicing tolerance after ``makePolygons`` (flags kept if none)."""
+    tol = apply_slicing_tolerance(simp.polygons, mode)  # type: ignore[arg-type]
+    if tol is simp.polygons:
+        return simp
+    return CuraLayers(tol, np.zeros(tol.n_rings, dtype=bool))
+
+
+def slice_mesh_cura(
+    mesh: Any, settings: SliceSettings, st: Any, times: Any
+) -> SlicedModel:
+    """:func:`vecslice.slice_mesh` with ``compat="cura"`` (``st``: its stage timer)."""
+    from vecslice.storage import SlicedModel
+
+    try:
+        slice_z, print_z, thickness = st.run("layers", layer_heights, mesh, settings)
+        raw = st.run("contours", cura_raw_for, mesh, slice_z, settings)
+        simp = st.run("simplify", cura_clean, raw, settings)
+        simp = st.run("tolerance", _tolerance, simp, settings.slicing_tolerance)
+        before = st.run("stitch", cura_before_union, simp, settings)
+        parts = st.run("parts", make_parts, before.polygons,
+                       union_overlapping_volumes=settings.union_overlapping_volumes)
+        stats = raw.stats if raw.stats is not None else np.zeros((0, 4), np.int64)
+        model = st.run("store", SlicedModel.from_parts, parts, slice_z=slice_z,
+                       print_z=print_z, thickness=thickness,
+                       open=before.polygons.open, open_chains=stats[:, 2],
+                       stitched_gaps=stats[:, 3])
+    finally:
+        st.close()
+    if times is not None:
+        times.seconds.update(st.times.seconds)
+    return model
 
 
 def cura_raw_for(mesh: Any, slice_z: Any, settings: SliceSettings) -> CuraLayers:

@@ -21,9 +21,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._kernels.cura_loops import basic_loops
+from vecslice._kernels.cura_loops import basic_loops, emit_rings
 from vecslice._kernels.cura_mesh import face_neighbours, vertex_faces
-from vecslice._kernels.cura_segments import order_by_layer, slot_segments
+from vecslice._kernels.cura_segments import (
+    classify_slots,
+    face_ranges,
+    fill_segments,
+    order_by_layer,
+)
 from vecslice._kernels.cura_stitch import connect_open_polylines
 from vecslice.errors import InputValueError
 from vecslice.paths import LayerPaths
@@ -61,56 +66,6 @@ class CuraLayers:
     polygons: LayerPaths
     explicit: NDArray[np.bool_]
     stats: NDArray[np.int64] | None = None
-
-
-def _face_ranges(
-    vertices: NDArray[np.int64], faces: NDArray[np.int64], z: NDArray[np.int64]
-) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """First plane and slot offsets of every face: planes with zmin <= z < zmax."""
-    fz = vertices[:, 2][faces]
-    lo = np.searchsorted(z, fz.min(axis=1), side="left").astype(np.int64)
-    hi = np.searchsorted(z, fz.max(axis=1), side="left").astype(np.int64)
-    offsets = np.zeros(faces.shape[0] + 1, dtype=np.int64)
-    np.cumsum(hi - lo, out=offsets[1:])
-    return lo, offsets
-
-
-def _rings_from_order(
-    points: NDArray[np.int64],
-    seg_order: NDArray[np.int64],
-    ring_start: NDArray[np.bool_],
-    seg_layer: NDArray[np.int64],
-) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
-    """Ring points (first start, then every end), ring offsets and ring layers."""
-    n = seg_order.shape[0]
-    starts = np.flatnonzero(ring_start)
-    ring_of = np.cumsum(ring_start) - 1
-    coords = np.empty((n + starts.shape[0], 2), dtype=np.int64)
-    coords[np.arange(n) + ring_of + 1] = points[seg_order, 2:4]
-    coords[starts + np.arange(starts.shape[0])] = points[seg_order[starts], 0:2]
-    ring_offsets = np.append(starts + np.arange(starts.shape[0]), coords.shape[0])
-    return coords, ring_offsets.astype(np.int64), seg_layer[seg_order[starts]]
-
-
-def _by_layer(
-    coords: NDArray[np.int64],
-    ring_offsets: NDArray[np.int64],
-    ring_layer: NDArray[np.int64],
-    keep: NDArray[np.bool_],
-    n_layers: int,
-) -> LayerPaths:
-    """The rings where ``keep``, in order, grouped by their (non-decreasing) layer."""
-    idx = np.flatnonzero(keep)
-    lens = (ring_offsets[1:] - ring_offsets[:-1])[idx]
-    new_offsets = np.zeros(idx.shape[0] + 1, dtype=np.int64)
-    np.cumsum(lens, out=new_offsets[1:])
-    items = np.repeat(ring_offsets[idx] - new_offsets[:-1], lens) + np.arange(
-        new_offsets[-1], dtype=np.int64)
-    layer_offsets = np.zeros(n_layers + 1, dtype=np.int64)
-    np.cumsum(np.bincount(ring_layer[idx], minlength=n_layers), out=layer_offsets[1:])
-    return LayerPaths._trusted(
-        np.ascontiguousarray(coords[items]), new_offsets, layer_offsets
-    )
 
 
 def concat_layers(a: LayerPaths, b: LayerPaths) -> LayerPaths:
@@ -166,32 +121,30 @@ def cura_raw(
         )
     limit = (int(vertices[:, 2].min()) + 1 if compensate_below is None
              else compensate_below)
-    neighbours = face_neighbours(vertices, faces)
     vf_offsets, vf_faces = vertex_faces(faces, vertices.shape[0])
-    face_lo, slot_offsets = _face_ranges(vertices, faces, z)
-    slots, links, valid = slot_segments(vertices, faces, neighbours, z, face_lo,
-                                        slot_offsets, limit)
-    layer_offsets, seg_slot, slot_seg = order_by_layer(valid, face_lo, slot_offsets,
-                                                       n_layers)
-    points = slots[seg_slot]
+    neighbours = face_neighbours(vertices, faces, vf_offsets, vf_faces)
+    vert_layer = np.searchsorted(z, vertices[:, 2], side="left").astype(np.int64)
+    face_lo, slot_offsets = face_ranges(vert_layer, faces)
+    valid = classify_slots(vertices, faces, z, face_lo, slot_offsets, limit)
+    layer_offsets, slot_seg = order_by_layer(valid, face_lo, slot_offsets, n_layers)
+    points, links = fill_segments(vertices, faces, neighbours, z, face_lo,
+                                  slot_offsets, slot_seg, limit)
     seg_order, ring_start, closed = basic_loops(
-        points, links[seg_slot], layer_offsets, face_lo, slot_offsets, slot_seg,
-        vf_offsets, vf_faces,
+        points, links, layer_offsets, face_lo, slot_offsets, slot_seg, vf_offsets,
+        vf_faces,
     )
-    seg_layer = np.repeat(np.arange(n_layers, dtype=np.int64), np.diff(layer_offsets))
-    coords, ring_offsets, ring_layer = _rings_from_order(points, seg_order,
-                                                         ring_start, seg_layer)
-    is_closed = closed[ring_start]
-    loops = _by_layer(coords, ring_offsets, ring_layer, is_closed, n_layers)
-    chains = _by_layer(coords, ring_offsets, ring_layer, ~is_closed, n_layers)
+    lc, lr, ll, cc, cr, cl = emit_rings(points, seg_order, ring_start, closed,
+                                        layer_offsets)
+    loops = LayerPaths._trusted(lc, lr, ll)
+    chains = LayerPaths._trusted(cc, cr, cl)
     stitched = np.zeros(n_layers, dtype=np.int64)
     n_open = chains.rings_per_layer()
+    n_loops = loops.rings_per_layer()
     if chains.n_rings:
         cc, cr, cl, oc, orr, ol, stitched = connect_open_polylines(
             chains.coords, chains.ring_offsets, chains.layer_offsets, STITCH_ROUNDS)
         loops = concat_layers(loops, LayerPaths._trusted(cc, cr, cl))
         chains = LayerPaths._trusted(oc, orr, ol)
-    n_loops = np.bincount(ring_layer[is_closed], minlength=n_layers)
     stats = np.stack([np.diff(layer_offsets), n_loops, n_open, stitched], axis=1)
     polygons = LayerPaths._trusted(loops.coords, loops.ring_offsets,
                                    loops.layer_offsets, chains)

@@ -189,6 +189,10 @@ def slice_mesh(
             "`settings` must be a vecslice.SliceSettings; "
             f"got {type(settings).__name__}"
         )
+    if settings.compat == "cura":
+        from vecslice.cura_pipeline import slice_mesh_cura
+
+        return slice_mesh_cura(mesh, settings, _Stages(_STAGES, progress), times)
     st = _Stages(_STAGES, progress)
     try:
         slice_z, print_z, thickness = st.run("layers", layer_heights, mesh, settings)
