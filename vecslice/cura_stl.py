@@ -279,6 +279,10 @@ def load_mesh_cura(source: Any, scale: float) -> Any:
     elif isinstance(source, (str, Path)) or hasattr(source, "__fspath__"):
         path = Path(source)
         name = str(path)
+        if not path.exists():
+            raise MeshFileError(f"mesh file not found: '{path}'")
+        if path.is_dir():
+            raise MeshFileError(f"'{path}' is a directory, not a mesh file")
         if path.suffix.lower() != ".stl":
             raise MeshFileError(
                 f"'{path}': compat='cura' reads STL files only (CuraEngine's own "
