@@ -95,6 +95,17 @@ def cura_clean(raw: CuraLayers, settings: SliceSettings) -> CuraLayers:
     CuraLayers
         Implicitly closed polygons (CuraEngine's ``SlicerLayer.polygons_``), with
         the open polylines in ``.polygons.open``.
+
+    Examples
+    --------
+    >>> import trimesh, vecslice as vs
+    >>> from vecslice.cura_slicing import cura_raw
+    >>> box = trimesh.creation.box((2, 2, 2))
+    >>> _ = box.apply_translation((1, 1, 1))
+    >>> raw = cura_raw(vs.load_mesh(box, compat="cura"), [1000])
+    >>> simp = cura_clean(raw, vs.SliceSettings(compat="cura"))
+    >>> simp.polygons.layer(0)[0].tolist()
+    [[0, 0], [2000, 0], [2000, 2000], [0, 2000]]
     """
     s = settings
     snap = max(s.minimum_polygon_circumference, 1)
@@ -132,11 +143,27 @@ def cura_before_union(
     layer's polygons as explicitly closed polygons (not simplified), the others are
     simplified as open polylines (empty results dropped).
 
+    Parameters
+    ----------
+    clean : CuraLayers
+        From :func:`cura_clean` (after the slicing tolerance).
+    settings : SliceSettings
+        Simplification thresholds (µm) for the open polylines.
+    max_stitch_distance : int, default 400
+        Cura's ``wall_line_width_0`` in µm.
+
     Returns
     -------
     CuraLayers
         The polygons handed to the union, and the layer's open polylines in
         ``.polygons.open``.
+
+    Notes
+    -----
+    CuraEngine visits the candidate endpoints in its hash grid's order, which
+    matters only between endpoints at equal distance or when one closer than
+    10 µm ends the search; here they are visited line by line (first point before
+    last), see :func:`vecslice._kernels.cura_polylines.stitch_open_polylines`.
     """
     s = settings
     polys = clean.polygons
@@ -173,6 +200,16 @@ def cura_stages(mesh: Any, settings: SliceSettings) -> dict[str, Any]:
         ``slice_z``, ``print_z``, ``thickness``; ``raw``, ``simp`` and
         ``before_union`` (:class:`CuraLayers`, with the open polylines of the stage
         in ``.polygons.open``); ``parts`` (:class:`vecslice.parts.LayerParts`).
+
+    Examples
+    --------
+    >>> import trimesh, vecslice as vs
+    >>> box = trimesh.creation.box((2, 2, 2))
+    >>> _ = box.apply_translation((1, 1, 1))
+    >>> st = cura_stages(vs.load_mesh(box, compat="cura"),
+    ...                  vs.SliceSettings(compat="cura"))
+    >>> [st[k].polygons.coords.shape[0] for k in ("raw", "simp", "before_union")]
+    [162, 72, 72]
     """
     slice_z, print_z, thickness = layer_heights(mesh, settings)
     raw = cura_raw_for(mesh, slice_z, settings)

@@ -34,7 +34,8 @@ from vecslice.errors import InputValueError
 from vecslice.paths import LayerPaths
 from vecslice.slicing import _check_mesh, _check_slice_z
 
-__all__ = ["CuraLayers", "cura_raw"]
+__all__ = ["NO_COMPENSATION", "STITCH_ROUNDS", "CuraLayers", "concat_layers",
+           "cura_raw"]
 
 NO_COMPENSATION = -(2**62)
 """``compensate_below`` value that disables the on-plane compensation."""
@@ -108,6 +109,42 @@ def cura_raw(
     CuraLayers
         Explicitly closed loops and stitched polygons; ``.polygons.open`` holds
         the polylines left open.
+
+    Raises
+    ------
+    InputTypeError
+        If ``mesh`` is not a :class:`vecslice.Mesh` or ``slice_z`` not integer.
+    InputValueError
+        If ``slice_z`` is not sorted or beyond 2**30 µm.
+
+    Notes
+    -----
+    Per plane, in CuraEngine's order: each face gives at most one segment from its
+    own vertex order with CuraEngine's ``interpolate`` (the two faces of an edge
+    may disagree by a micron); chains start at the lowest unused segment and
+    append only segment ends, so a loop closed by the mesh topology repeats its
+    first point within 10 µm (its *closing point*, kept); an end on a mesh vertex
+    (a vertex exactly on the plane) tries every face around that vertex. Open
+    chains are joined by ``connectOpenPolylines`` (end to start, < 20 µm) and
+    ``stitch`` (< 10 mm, also reversing); joints keep both points.
+
+    Planes at or below the mesh's lowest point stand for CuraEngine's ``z <= 0``
+    (the mesh on the bed): there, vertices on the plane move 1 µm down.
+
+    Examples
+    --------
+    A 2 mm box resting on z = 0, cut at 1 mm: 8 segments give 9 points, the last
+    1 µm from the first; ``999`` and ``1001`` show ``interpolate``'s bias.
+
+    >>> import trimesh, vecslice as vs
+    >>> box = trimesh.creation.box((2, 2, 2))
+    >>> _ = box.apply_translation((1, 1, 1))
+    >>> raw = cura_raw(vs.load_mesh(box, compat="cura"), [1000])
+    >>> raw.polygons.layer(0)[0].tolist()  # doctest: +NORMALIZE_WHITESPACE
+    [[0, 1000], [0, 0], [999, 0], [2000, 0], [2000, 999], [2000, 2000],
+     [1001, 2000], [0, 2000], [0, 1001]]
+    >>> raw.explicit.tolist(), raw.stats.tolist()
+    ([True], [[8, 1, 0, 0]])
     """
     vertices, faces = _check_mesh(mesh, True)
     z = _check_slice_z(slice_z)

@@ -22,6 +22,13 @@ Follows ``spec/CURA_COMPAT.md`` section 2 (CuraEngine 07475e3, its ``loadMeshSTL
 * **Faces.** A triangle with two equal vertex indices is dropped (its vertices stay,
   as in CuraEngine, and count for the bounding box). Nothing else is repaired:
   winding, duplicates, holes and non-manifold edges are kept as in the file.
+
+Interpretations: a float32 value is the correctly rounded one (glibc's ``strtof``,
+x86-64 Linux). One pathological case differs from glibc's ``sscanf``: a third
+number followed by an incomplete exponent (``vertex 1 2 3e+x``) is read as 3 here,
+where glibc consumes ``3e+`` and rejects the line. The mesh is not moved: CuraEngine's
+``MeshGroup::finalize`` (bed centring, ``center_object``) is outside the slicer,
+and vecslice measures layers from the mesh's lowest point anyway.
 """
 
 from __future__ import annotations
@@ -177,6 +184,11 @@ def mm2int(mm: NDArray[Any], name: str = "vertices") -> NDArray[np.int64]:
     ------
     InputValueError
         If a value is NaN or infinite or reaches 2**30 µm in magnitude.
+
+    Examples
+    --------
+    >>> mm2int(np.array([0.0005, -0.0005, 1.25])).tolist()
+    [1, -1, 1250]
     """
     x = np.asarray(mm, dtype=np.float64)
     bad = np.flatnonzero(~np.isfinite(x.ravel()))
@@ -209,6 +221,15 @@ def meld(corners_um: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.i
 
     Vertices come in creation order (the file order of the corner that created
     each); ``corner_vertex[i]`` is the vertex corner ``i`` uses.
+
+    Examples
+    --------
+    14 and 15 µm are 1 µm apart across a cell boundary (not melded); 15 and 44 µm
+    share a cell and are 29 µm apart (melded):
+
+    >>> v, cv = meld(np.array([[14, 0, 0], [15, 0, 0], [44, 0, 0]]))
+    >>> v.tolist(), cv.tolist()
+    ([[14, 0, 0], [15, 0, 0]], [0, 1, 1])
     """
     c = np.ascontiguousarray(corners_um, dtype=np.int64)
     n = c.shape[0]
@@ -235,6 +256,17 @@ def cura_mesh_from_corners(corners_um: NDArray[np.int64], source: str) -> Any:
     ------
     InputValueError
         If no triangle is left.
+
+    Examples
+    --------
+    The second triangle's corners 0 and 10 µm meld, so it is dropped; its third
+    vertex stays:
+
+    >>> m = cura_mesh_from_corners(np.array(
+    ...     [[0, 0, 0], [1000, 0, 0], [0, 1000, 0], [0, 0, 0], [10, 0, 0],
+    ...      [0, 0, 1000]]), "example")
+    >>> m.faces.tolist(), m.n_vertices, m.load_info.faces_degenerate
+    ([[0, 1, 2]], 4, 1)
     """
     from vecslice.mesh import LoadInfo, Mesh
 

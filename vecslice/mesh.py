@@ -561,6 +561,8 @@ def load_mesh(
     >>> box = load_mesh(trimesh.creation.box((10, 20, 30)))
     >>> box.bounds.tolist(), box.n_faces, box.is_watertight
     ([[-5000, -10000, -15000], [5000, 10000, 15000]], 12, True)
+    >>> load_mesh(trimesh.creation.box((10, 20, 30)), compat="cura").faces[:2].tolist()
+    [[0, 1, 2], [3, 0, 2]]
     """
     s = _check_scale(scale)
     if check_option(compat, ("vecslice", "cura"), "compat") == "cura":
