@@ -15,8 +15,8 @@ from .geometry import vsize
 _OUT = types.Tuple(
     (I64_2D_OUT, I64_1D_OUT, I64_1D_OUT, I64_2D_OUT, I64_1D_OUT, I64_1D_OUT)
 )
-_CELL_OFF = 2**31
-_CELL_MUL = 2**33
+_CELL_OFF = 2**30  # cell + offset in [1, 2**31) for |coords| < 2**30
+_CELL_MUL = 2**31  # (x cell) * 2**31 + (y cell) < 2**62: no overflow
 _I64_MAX = 9223372036854775807
 
 

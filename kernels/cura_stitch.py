@@ -19,8 +19,8 @@ from ._types import B1, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 _W = types.int64[::1]
 _W2 = types.int64[:, ::1]
 _INVALID = -1
-_CELL_OFF = 2**31  # cell index + offset > 0 for |coords| < 2**30, cells >= 1
-_CELL_MUL = 2**33
+_CELL_OFF = 2**30  # cell + offset in [1, 2**31) for |coords| < 2**30
+_CELL_MUL = 2**31  # (x cell) * 2**31 + (y cell) < 2**62: no overflow
 
 _CONNECT_OUT = types.Tuple(
     (I64_2D_OUT, I64_1D_OUT, I64_1D_OUT, I64_2D_OUT, I64_1D_OUT, I64_1D_OUT,

@@ -117,3 +117,22 @@ def test_open_polyline_stitcher_closes_long_chains_only():
     coords, ro, lo = _pack([small])
     cc, cr, cl, oc, orr, ol = stitch_open_polylines(coords, ro, lo, 400, 10)
     assert cr.tolist() == [0] and len(orr) == 2
+
+
+@given(st.lists(st.lists(st.tuples(
+    st.sampled_from([-(2**30) + 1, -(2**30) + 12, 2**30 - 1, 2**30 - 9]),
+    st.sampled_from([-(2**30) + 1, -(2**30) + 5, 2**30 - 1, 2**30 - 400])),
+    min_size=1, max_size=4), max_size=6))
+def test_joining_near_the_coordinate_limit(chains):
+    # grid keys stay in int64 for |coords| < 2**30 (cell size 20, 400, 10000)
+    coords, ro, lo = _pack([chains])
+    cc, cr, cl, oc, orr, ol, _ = connect_open_polylines(coords, ro, lo, ROUNDS)
+    polylines = [list(c) for c in chains]
+    want = ref.connect_open_polylines(polylines, 20, False)
+    want += ref.connect_open_polylines(polylines, 10_000, True)
+    assert _unpack(cc, cr, cl) == [want]
+    assert _unpack(oc, orr, ol) == [[p for p in polylines if p]]
+    cc, cr, cl, oc, orr, ol = stitch_open_polylines(coords, ro, lo, 400, 10)
+    want_closed, want_open = ref.open_polyline_stitcher(chains, 400, 10)
+    assert _unpack(cc, cr, cl) == [want_closed]
+    assert _unpack(oc, orr, ol) == [want_open]
