@@ -554,6 +554,8 @@ def load_mesh(
     InputValueError
         If ``scale`` is not positive and finite, a vertex is NaN or infinite, or a
         coordinate reaches 2**30 µm.
+    SettingsError
+        If ``compat`` is not 'vecslice' or 'cura'.
 
     Examples
     --------
