@@ -107,8 +107,10 @@ def test_adaptive_settings_defaults_and_replace():
             s.adaptive_threshold) == (False, 100, 10, 200)
     t = s.replace(adaptive_layers=True, adaptive_threshold=-5)
     assert t.adaptive_layers is True and t.adaptive_threshold == -5
-    assert s.option_names()[-4:] == ("adaptive_layers", "adaptive_variation",
-                                     "adaptive_variation_step", "adaptive_threshold")
+    names = s.option_names()
+    i = names.index("adaptive_layers")
+    assert names[i:i + 4] == ("adaptive_layers", "adaptive_variation",
+                              "adaptive_variation_step", "adaptive_threshold")
 
 
 def test_layer_heights_switches_to_the_adaptive_schedule():
