@@ -294,3 +294,15 @@ def test_slice_mesh_inclusive_unions_with_the_layer_above():
     assert k >= 10 and (raw[k:] == 0).all() and (np.diff(raw[:k]) > 0).all()
     np.testing.assert_allclose(areas[:k - 1], raw[1:k], rtol=1e-3)
     np.testing.assert_allclose(areas[k - 1:], raw[k - 1:], rtol=1e-3)
+
+
+def test_slice_mesh_compat_cura_uses_the_adaptive_schedule():
+    # CuraEngine's on-plane nudge only touches planes at the lowest z; adaptive
+    # planes start at initial_layer_height above it
+    cube = vs.load_mesh(trimesh.creation.box((10, 10, 10)))
+    s = vs.SliceSettings(adaptive_layers=True, compat="cura")
+    z, p, t = vs.layer_heights(cube, s)
+    model = vs.slice_mesh(cube, s)
+    assert model.slice_z.tolist() == z.tolist()
+    assert model.thickness.tolist() == t.tolist()
+    assert model.layer_areas().tolist() == [*[100e6] * 49, 0.0]
