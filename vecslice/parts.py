@@ -1,6 +1,7 @@
 """Layer parts: union each layer's loops and split it into outline + holes.
 
-This is the only module that imports manifold3d. Rings go to manifold3d's
+This is the only module that uses manifold3d (imported inside the functions that
+call it, so ``import vecslice`` does not load it). Rings go to manifold3d's
 ``CrossSection`` (Clipper2 inside) as float64 arrays, which are exact for integers
 below ``2**30``; results come back through one ``np.concatenate`` and are rounded
 to int64 µm once. Everything after the manifold3d calls (orientation, degenerate
@@ -10,120 +11,27 @@ rings, ordering) is whole-array numpy over all layers at once.
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
-import manifold3d
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from vecslice._kernels.rings import ring_area2
-from vecslice._validate import as_coords, as_offsets, check_option
+from vecslice._validate import check_option
 from vecslice.errors import InputTypeError, InputValueError
+from vecslice.interop import to_shapely as to_shapely  # moved; re-exported
+from vecslice.layerparts import LayerParts as LayerParts  # moved; re-exported
 from vecslice.paths import LayerPaths
+from vecslice.ragged import offsets_from_lengths as _offsets
+from vecslice.ragged import ragged_take
 
-__all__ = ["LayerParts", "apply_slicing_tolerance", "make_parts", "to_shapely"]
+if TYPE_CHECKING:
+    import manifold3d
+
+__all__ = ["apply_slicing_tolerance", "make_parts"]
 
 _MAX_PAIRS = 10_000_000  # (hole, outline) box tests before falling back to decompose
 _KEY_SHIFT = np.int64(2**31)  # |y| < 2**30, so x * 2**31 + y orders like (x, y)
-
-
-@dataclass(frozen=True, slots=True, eq=False)
-class LayerParts:
-    """Layers split into parts (CuraEngine's LayerParts), with nested offsets.
-
-    Attributes
-    ----------
-    coords : ndarray of shape (N, 2), int64
-        All vertices in µm.
-    ring_offsets : ndarray of shape (R + 1,), int64
-        Ring starts in ``coords``.
-    part_offsets : ndarray of shape (P + 1,), int64
-        Part starts in the rings. The first ring of a part is its outline (CCW,
-        ``ring_area2 > 0``); the others are its holes (CW, ``ring_area2 < 0``).
-    layer_offsets : ndarray of shape (L + 1,), int64
-        Layer starts in the parts.
-
-    Examples
-    --------
-    >>> sq = [[0, 0], [10, 0], [10, 10], [0, 10]]
-    >>> p = LayerParts(sq, [0, 4], [0, 1], [0, 0, 1])
-    >>> p.n_layers, p.n_parts, p.part(1, 0)[0].tolist()
-    (2, 1, [[0, 0], [10, 0], [10, 10], [0, 10]])
-
-    In plain Python, ring ``r`` of part ``j`` of layer ``k`` is::
-
-        q = layer_offsets[k] + j
-        r_abs = part_offsets[q] + r
-        coords[ring_offsets[r_abs]:ring_offsets[r_abs + 1]]
-    """
-
-    coords: NDArray[np.int64]
-    ring_offsets: NDArray[np.int64]
-    part_offsets: NDArray[np.int64]
-    layer_offsets: NDArray[np.int64]
-
-    def __init__(
-        self,
-        coords: ArrayLike,
-        ring_offsets: ArrayLike,
-        part_offsets: ArrayLike,
-        layer_offsets: ArrayLike,
-    ) -> None:
-        c = as_coords(coords, "coords")
-        r = as_offsets(ring_offsets, c.shape[0], "ring_offsets")
-        p = as_offsets(part_offsets, r.shape[0] - 1, "part_offsets")
-        lo = as_offsets(layer_offsets, p.shape[0] - 1, "layer_offsets")
-        arrays = []
-        for new, old in ((c, coords), (r, ring_offsets), (p, part_offsets),
-                         (lo, layer_offsets)):
-            new = new.copy() if new is old else new
-            new.flags.writeable = False
-            arrays.append(new)
-        for name, a in zip(LayerParts.__slots__, arrays, strict=True):
-            object.__setattr__(self, name, a)
-
-    @classmethod
-    def _trusted(cls, *arrays: NDArray[np.int64]) -> LayerParts:
-        """Wrap freshly computed, valid (coords, ring, part, layer offsets)."""
-        self = object.__new__(cls)
-        for name, a in zip(cls.__slots__, arrays, strict=True):
-            a.flags.writeable = False
-            object.__setattr__(self, name, a)
-        return self
-
-    @property
-    def n_layers(self) -> int:
-        """Number of layers ``L``."""
-        return int(self.layer_offsets.shape[0] - 1)
-
-    @property
-    def n_parts(self) -> int:
-        """Number of parts ``P`` over all layers."""
-        return int(self.part_offsets.shape[0] - 1)
-
-    def part(self, k: int, j: int) -> tuple[NDArray[np.int64], list[NDArray[np.int64]]]:
-        """Part ``j`` of layer ``k`` as ``(outline, [holes])`` read-only views."""
-        n = self.n_layers
-        if not -n <= k < n:
-            raise InputValueError(f"`k` must be a layer index in [-{n}, {n}); got {k}")
-        k %= n
-        n_parts = int(self.layer_offsets[k + 1] - self.layer_offsets[k])
-        if not 0 <= j < n_parts:
-            raise InputValueError(
-                f"`j` must be a part index of layer {k} in [0, {n_parts}); got {j}"
-            )
-        q = int(self.layer_offsets[k]) + j
-        ro = self.ring_offsets
-        rings = [self.coords[ro[i] : ro[i + 1]]
-                 for i in range(self.part_offsets[q], self.part_offsets[q + 1])]
-        return rings[0], rings[1:]
-
-    def __repr__(self) -> str:
-        return (
-            f"LayerParts({self.n_layers} layers, {self.n_parts} parts, "
-            f"{self.ring_offsets.shape[0] - 1} rings, {self.coords.shape[0]} vertices)"
-        )
 
 
 def _check_loops(loops: Any) -> LayerPaths:
@@ -147,6 +55,8 @@ def _cross_sections(
     ro = loops.ring_offsets.tolist()
     rings = [f[a:b] for a, b in itertools.pairwise(ro)]
     lo = loops.layer_offsets.tolist()
+    import manifold3d
+
     cs = manifold3d.CrossSection
     return [cs(rings[lo[k] : lo[k + 1]], fillrule) for k in range(len(lo) - 1)]
 
@@ -157,12 +67,6 @@ def _gather(polys: list[Any]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         return np.empty((0, 2), np.float64), np.empty(0, np.int64)
     lens = np.fromiter((len(p) for p in polys), np.int64, len(polys))
     return np.concatenate(polys), lens
-
-
-def _offsets(lens: NDArray[np.int64]) -> NDArray[np.int64]:
-    out = np.zeros(lens.shape[0] + 1, dtype=np.int64)
-    np.cumsum(lens, out=out[1:])
-    return out
 
 
 def _vertex_keys(coords: NDArray[np.int64]) -> NDArray[np.int64]:
@@ -256,39 +160,13 @@ def _take_rings(
     np.subtract(src, ln, out=src, where=src >= ln)
     fl = np.flatnonzero(flip[order])
     if fl.size:  # reversed rings: position (shift - local) mod len
-        fo, idx = _ragged_ranges(new_offsets, fl)
+        fo, idx = ragged_take(new_offsets, fl)
         local = idx - np.repeat(new_offsets[fl], np.diff(fo))
         src[idx] = (np.repeat(sh[fl], np.diff(fo)) - local) % np.repeat(
             lens[fl], np.diff(fo)
         )
     src += np.repeat(offsets[:-1][order], lens)
     return np.take(coords, src, axis=0), new_offsets
-
-
-def _ragged_ranges(
-    offsets: NDArray[np.int64], sel: NDArray[np.int64]
-) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Offsets and flat indices of elements ``sel`` of a ragged level."""
-    lens = offsets[sel + 1] - offsets[sel]
-    out = _offsets(lens)
-    idx = np.arange(out[-1], dtype=np.int64)
-    idx += np.repeat(offsets[sel] - out[:-1], lens)
-    return out, idx
-
-
-def _close_rings(
-    coords: NDArray[np.int64], offsets: NDArray[np.int64]
-) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Rings ``offsets[i]:offsets[i + 1]`` with their first vertex repeated.
-
-    GeoArrow/shapely layout; the returned offsets start at 0.
-    """
-    lens = np.diff(offsets)
-    new_offsets = _offsets(lens + 1)
-    local = np.arange(new_offsets[-1], dtype=np.int64)
-    local -= np.repeat(new_offsets[:-1], lens + 1)
-    local %= np.maximum(np.repeat(lens, lens + 1), 1)
-    return coords[local + np.repeat(offsets[:-1], lens + 1)], new_offsets
 
 
 def _assemble(
@@ -432,6 +310,8 @@ def make_parts(
     >>> parts.n_parts, ring_area2(parts.coords, parts.ring_offsets).tolist()
     (1, [1800, -200])
     """
+    import manifold3d
+
     loops = _check_loops(loops)
     rule = (manifold3d.FillRule.NonZero if union_overlapping_volumes
             else manifold3d.FillRule.EvenOdd)
@@ -494,6 +374,8 @@ def apply_slicing_tolerance(
     >>> apply_slicing_tolerance(loops, "exclusive").layer_area2().tolist()
     [200, 0]
     """
+    import manifold3d
+
     loops = _check_loops(loops)
     check_option(mode, ("middle", "inclusive", "exclusive"), "mode")
     if mode == "middle" or loops.n_layers == 0:
@@ -523,54 +405,6 @@ def apply_slicing_tolerance(
     return LayerPaths._trusted(coords, ring_offsets, layer_offsets, loops.open)
 
 
-def to_shapely(parts: Any, k: int, *, scale: float = 1e-3) -> Any:
-    """Layer ``k`` of a parts container as a shapely MultiPolygon.
-
-    Parameters
-    ----------
-    parts : LayerParts or SlicedModel
-        Anything with ``coords``, ``ring_offsets``, ``part_offsets`` and
-        ``layer_offsets``.
-    k : int
-        Layer index (negative counts from the end).
-    scale : float, default 1e-3
-        Factor from µm to the output unit (default: millimetres).
-
-    Returns
-    -------
-    shapely.MultiPolygon
-        One polygon per part, rings closed as shapely requires.
-
-    Examples
-    --------
-    >>> p = LayerParts([[0, 0], [1000, 0], [0, 1000]], [0, 3], [0, 1], [0, 1])
-    >>> to_shapely(p, 0).area
-    0.5
-    """
-    try:
-        import shapely
-    except ImportError:
-        raise ImportError(
-            "shapely is required for to_shapely(); pip install shapely"
-        ) from None
-    n_layers = parts.layer_offsets.shape[0] - 1
-    if not isinstance(k, (int, np.integer)) or not -n_layers <= k < n_layers:
-        raise InputValueError(
-            f"`k` must be a layer index in [-{n_layers}, {n_layers}); got {k!r}"
-        )
-    k = int(k) % n_layers
-    q0, q1 = (int(x) for x in parts.layer_offsets[k : k + 2])
-    part_offsets = parts.part_offsets[q0 : q1 + 1]
-    r0, r1 = int(part_offsets[0]), int(part_offsets[-1])
-    offsets = parts.ring_offsets[r0 : r1 + 1]
-    closed, ring_offsets = _close_rings(parts.coords, offsets)
-    return shapely.from_ragged_array(
-        shapely.GeometryType.MULTIPOLYGON,
-        closed * scale,
-        (ring_offsets, part_offsets - r0, np.array([0, q1 - q0], dtype=np.int64)),
-    )[0]
-
-
 def layer_xor_areas(a: LayerPaths, b: LayerPaths) -> NDArray[np.float64]:
     """Area (µm²) of the symmetric difference of ``a`` and ``b``, per layer.
 
@@ -584,6 +418,8 @@ def layer_xor_areas(a: LayerPaths, b: LayerPaths) -> NDArray[np.float64]:
     >>> layer_xor_areas(a, b).tolist()
     [100.0]
     """
+    import manifold3d
+
     a, b = _check_loops(a), _check_loops(b)
     if a.n_layers != b.n_layers:
         raise InputValueError(

@@ -8,18 +8,20 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vecslice._kernels.rings import ring_area2
-from vecslice._validate import as_coords, as_offsets
+from vecslice.errors import LayoutError
+from vecslice.ragged import (
+    RaggedContainer,
+    adopt,
+    check_index,
+    nested_offsets,
+    offsets_from_lengths,
+)
 
 __all__ = ["LayerPaths", "Paths"]
 
 
-def _freeze(*arrays: NDArray[np.int64]) -> None:
-    for a in arrays:
-        a.flags.writeable = False
-
-
 @dataclass(frozen=True, slots=True, eq=False)
-class Paths:
+class Paths(RaggedContainer):
     """Rings or polylines in one flat buffer.
 
     Ring ``i`` is ``coords[ring_offsets[i]:ring_offsets[i + 1]]``; closed rings do not
@@ -43,23 +45,15 @@ class Paths:
     ring_offsets: NDArray[np.int64]
 
     def __init__(self, coords: ArrayLike, ring_offsets: ArrayLike) -> None:
-        c = as_coords(coords, "coords")
-        o = as_offsets(ring_offsets, c.shape[0], "ring_offsets")
-        if c is coords:
-            c = c.copy()
-        if o is ring_offsets:
-            o = o.copy()
-        _freeze(c, o)
-        object.__setattr__(self, "coords", c)
-        object.__setattr__(self, "ring_offsets", o)
+        c, o = nested_offsets(coords, [("ring_offsets", ring_offsets)])
+        self._set_fields({"coords": adopt(c, coords),
+                          "ring_offsets": adopt(o, ring_offsets)})
 
     @classmethod
     def from_rings(cls, rings: list[ArrayLike]) -> Paths:
         """Build from a list of (n, 2) integer arrays."""
         arrs = [np.asarray(r).reshape(-1, 2) for r in rings]
-        lens = np.array([len(r) for r in arrs], dtype=np.int64)
-        offsets = np.zeros(len(arrs) + 1, dtype=np.int64)
-        np.cumsum(lens, out=offsets[1:])
+        offsets = offsets_from_lengths(np.array([len(r) for r in arrs], np.int64))
         coords = (
             np.concatenate(arrs) if arrs else np.empty((0, 2), dtype=np.int64)
         )
@@ -89,17 +83,12 @@ class Paths:
         """Twice the signed area of each ring in µm² (exact; CCW > 0)."""
         return ring_area2(self.coords, self.ring_offsets)
 
-    @property
-    def nbytes(self) -> int:
-        """Bytes held by the arrays."""
-        return int(self.coords.nbytes + self.ring_offsets.nbytes)
-
     def __repr__(self) -> str:
         return f"Paths({len(self)} rings, {self.coords.shape[0]} vertices)"
 
 
 @dataclass(frozen=True, slots=True, eq=False)
-class LayerPaths:
+class LayerPaths(RaggedContainer):
     """Rings grouped by layer.
 
     Layer ``k`` holds rings ``layer_offsets[k]:layer_offsets[k + 1]``; ring ``i`` is
@@ -136,39 +125,17 @@ class LayerPaths:
         layer_offsets: ArrayLike,
         open: LayerPaths | None = None,
     ) -> None:
-        c = as_coords(coords, "coords")
-        r = as_offsets(ring_offsets, c.shape[0], "ring_offsets")
-        lo = as_offsets(layer_offsets, r.shape[0] - 1, "layer_offsets")
-        c, r, lo = (x.copy() if x is y else x for x, y in
-                    ((c, coords), (r, ring_offsets), (lo, layer_offsets)))
-        _freeze(c, r, lo)
+        c, r, lo = nested_offsets(
+            coords, [("ring_offsets", ring_offsets), ("layer_offsets", layer_offsets)]
+        )
         if open is not None and open.n_layers != lo.shape[0] - 1:
-            from vecslice.errors import LayoutError
-
             raise LayoutError(
                 f"`open` must have {lo.shape[0] - 1} layers; got {open.n_layers}"
             )
-        object.__setattr__(self, "coords", c)
-        object.__setattr__(self, "ring_offsets", r)
-        object.__setattr__(self, "layer_offsets", lo)
-        object.__setattr__(self, "open", open)
-
-    @classmethod
-    def _trusted(
-        cls,
-        coords: NDArray[np.int64],
-        ring_offsets: NDArray[np.int64],
-        layer_offsets: NDArray[np.int64],
-        open: LayerPaths | None = None,
-    ) -> LayerPaths:
-        """Wrap arrays that a kernel produced, already valid: no checks, no copies."""
-        self = object.__new__(cls)
-        _freeze(coords, ring_offsets, layer_offsets)
-        object.__setattr__(self, "coords", coords)
-        object.__setattr__(self, "ring_offsets", ring_offsets)
-        object.__setattr__(self, "layer_offsets", layer_offsets)
-        object.__setattr__(self, "open", open)
-        return self
+        self._set_fields({
+            "coords": adopt(c, coords), "ring_offsets": adopt(r, ring_offsets),
+            "layer_offsets": adopt(lo, layer_offsets), "open": open,
+        })
 
     @classmethod
     def empty(cls, n_layers: int) -> LayerPaths:
@@ -193,13 +160,7 @@ class LayerPaths:
 
     def layer(self, k: int) -> list[NDArray[np.int64]]:
         """Rings of layer ``k`` as a list of read-only (n, 2) views."""
-        if not -self.n_layers <= k < self.n_layers:
-            from vecslice.errors import InputValueError
-
-            raise InputValueError(
-                f"`k` must be a layer index in [0, {self.n_layers}); got {k}"
-            )
-        k %= self.n_layers
+        k = check_index(k, self.n_layers, "k", "layer index")
         r0, r1 = self.layer_offsets[k], self.layer_offsets[k + 1]
         ro = self.ring_offsets
         return [self.coords[ro[i] : ro[i + 1]] for i in range(r0, r1)]
@@ -226,12 +187,6 @@ class LayerPaths:
         out = np.zeros(self.n_layers, dtype=np.int64)
         np.add.at(out, self.ring_layer(), self.area2())
         return out
-
-    @property
-    def nbytes(self) -> int:
-        """Bytes held by the arrays, open chains included."""
-        own = self.coords.nbytes + self.ring_offsets.nbytes + self.layer_offsets.nbytes
-        return int(own + (self.open.nbytes if self.open is not None else 0))
 
     def __repr__(self) -> str:
         n_open = self.open.n_rings if self.open is not None else 0

@@ -1,11 +1,103 @@
-"""Vectorised helpers for ragged (offsets, items) arrays."""
+"""Shared machinery of the ragged containers.
+
+:class:`~vecslice.Paths`, :class:`~vecslice.LayerPaths`,
+:class:`~vecslice.parts.LayerParts` and :class:`~vecslice.SlicedModel` all hold flat
+int64 buffers with nested offsets (level ``k`` element ``i`` is
+``items[offsets[i]:offsets[i + 1]]`` of the level below). This module holds what they
+share: validating nested offsets, holding arrays read-only, checking indices,
+building a container from arrays known to be valid, and whole-array ragged helpers.
+"""
 
 from __future__ import annotations
 
-import numpy as np
-from numpy.typing import NDArray
+import dataclasses
+from collections.abc import Sequence
+from typing import Any, TypeVar
 
-__all__ = ["ragged_take"]
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vecslice._validate import as_coords, as_offsets
+from vecslice.errors import InputValueError
+
+__all__ = [
+    "RaggedContainer",
+    "adopt",
+    "check_index",
+    "freeze",
+    "nested_offsets",
+    "offsets_from_lengths",
+    "ragged_take",
+]
+
+C = TypeVar("C", bound="RaggedContainer")
+
+
+def freeze(a: NDArray[Any]) -> NDArray[Any]:
+    """Return ``a`` read-only. The caller hands ``a`` over: nothing else writes it."""
+    a.flags.writeable = False
+    return a
+
+
+def adopt(new: NDArray[Any], given: object) -> NDArray[Any]:
+    """``new`` (coerced from the caller's ``given``) read-only, copied if shared.
+
+    A container must not share memory that its caller can still write: ``new`` is
+    copied when it is the caller's own writeable array or a view. Read-only arrays
+    that own their data (another container's) are shared.
+    """
+    shared = new is given and (new.flags.writeable or not new.flags.owndata)
+    return freeze(new.copy() if shared else new)
+
+
+def nested_offsets(
+    coords: ArrayLike, levels: Sequence[tuple[str, ArrayLike]]
+) -> list[NDArray[np.int64]]:
+    """Validate ``coords`` and a chain of offsets, innermost level first.
+
+    ``levels`` is ``[(name, offsets), ...]``: the first offsets index ``coords``,
+    each next one the elements of the previous. Returns the coerced arrays
+    ``[coords, offsets_0, offsets_1, ...]`` (not yet frozen).
+
+    Examples
+    --------
+    >>> c, r, lo = nested_offsets([[0, 0], [1, 0], [0, 1]],
+    ...                           [("ring_offsets", [0, 3]), ("layer_offsets", [0, 1])])
+    >>> r.tolist(), lo.tolist()
+    ([0, 3], [0, 1])
+    """
+    out = [as_coords(coords, "coords")]
+    below = out[0].shape[0]
+    for name, offsets in levels:
+        o = as_offsets(offsets, below, name)
+        out.append(o)
+        below = o.shape[0] - 1
+    return out
+
+
+def check_index(value: object, n: int, name: str, what: str) -> int:
+    """Return ``value`` as an index in ``range(n)``; negative counts from the end.
+
+    ``what`` names the index in messages (e.g. ``"layer index"``).
+    """
+    if not isinstance(value, (int, np.integer)) or not -n <= value < n:
+        raise InputValueError(
+            f"`{name}` must be a {what} in [{-n}, {n}); got {value!r}"
+        )
+    return int(value) % n
+
+
+def offsets_from_lengths(lens: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Offsets ``[0, cumsum(lens)...]`` of a level whose elements have ``lens`` items.
+
+    Examples
+    --------
+    >>> offsets_from_lengths(np.array([2, 0, 3])).tolist()
+    [0, 2, 2, 5]
+    """
+    out = np.zeros(lens.shape[0] + 1, dtype=np.int64)
+    np.cumsum(lens, out=out[1:])
+    return out
 
 
 def ragged_take(
@@ -25,8 +117,48 @@ def ragged_take(
     """
     starts = offsets[idx]
     lens = offsets[idx + 1] - starts
-    new_offsets = np.zeros(idx.shape[0] + 1, dtype=np.int64)
-    np.cumsum(lens, out=new_offsets[1:])
+    new_offsets = offsets_from_lengths(lens)
     items = np.arange(new_offsets[-1], dtype=np.int64)
     items += np.repeat(starts - new_offsets[:-1], lens)
     return new_offsets, items
+
+
+class RaggedContainer:
+    """Base of the frozen dataclasses of read-only arrays.
+
+    Subclasses are ``@dataclass(frozen=True, slots=True, eq=False)``; their fields
+    are arrays or nested containers (or ``None``).
+    """
+
+    __slots__ = ()
+
+    def _set_fields(self, values: dict[str, Any]) -> None:
+        """Store ``values`` (arrays already validated, frozen or adoptable)."""
+        for name, value in values.items():
+            object.__setattr__(self, name, value)
+
+    @classmethod
+    def _trusted(cls: type[C], *values: Any, **named: Any) -> C:
+        """Wrap arrays that vecslice just computed and knows to be valid.
+
+        No checks and no copies; the arrays are handed over and frozen. Fields not
+        given are ``None``.
+        """
+        self = object.__new__(cls)
+        names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+        given = dict(zip(names, values, strict=False)) | named
+        self._set_fields({
+            n: freeze(v) if isinstance(v, np.ndarray) else v
+            for n, v in ((n, given.get(n)) for n in names)
+        })
+        return self
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the arrays, nested containers included."""
+        total = 0
+        for f in dataclasses.fields(self):  # type: ignore[arg-type]
+            value = getattr(self, f.name)
+            if isinstance(value, (np.ndarray, RaggedContainer)):
+                total += value.nbytes
+        return int(total)

@@ -17,10 +17,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._kernels.rings import ring_area2
-from vecslice._validate import as_coords, as_int_array, as_offsets
+from vecslice._validate import as_int_array, as_offsets
 from vecslice.errors import InputValueError, LayoutError, StorageFileError
+from vecslice.layerparts import Part, PartsLayout
 from vecslice.paths import LayerPaths
+from vecslice.ragged import adopt, nested_offsets
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "SlicedModel", "load_sliced"]
 
@@ -35,19 +36,22 @@ _FIELDS = (
 )
 
 
-def _freeze_copy(new: NDArray[np.int64], old: object) -> NDArray[np.int64]:
-    """``new`` made read-only; copied if it is the caller's own writeable array.
-
-    Read-only arrays that own their data (such as a LayerParts' arrays) are shared.
-    """
-    shared = new is old and (new.flags.writeable or not new.flags.owndata)
-    out = new.copy() if shared else new
-    out.flags.writeable = False
-    return out
+def _layer_offsets(
+    given: dict[str, Any], prefix: str, below: NDArray[np.int64], n: int
+) -> NDArray[np.int64]:
+    """``given[prefix + 'layer_offsets']`` checked: into ``below``, ``n + 1`` long."""
+    name = prefix + "layer_offsets"
+    lo = as_offsets(given[name], below.shape[0] - 1, name)
+    if lo.shape[0] != n + 1:
+        raise LayoutError(
+            f"`{name}` must have length {n + 1} (layers + 1, as `slice_z`); "
+            f"got {lo.shape[0]}"
+        )
+    return lo
 
 
 @dataclass(frozen=True, slots=True, eq=False)
-class SlicedModel:
+class SlicedModel(PartsLayout):
     """Layers of parts of rings, in flat int64 arrays with nested offsets.
 
     Parameters
@@ -145,31 +149,22 @@ class SlicedModel:
                     f"`{name}` must have length {n} (one per layer, as `slice_z`); "
                     f"got {v[name].shape[0]}"
                 )
-        for prefix in ("", "open_"):
-            c = as_coords(given[prefix + "coords"], prefix + "coords")
-            r = as_offsets(given[prefix + "ring_offsets"], c.shape[0],
-                           prefix + "ring_offsets")
-            below = r.shape[0] - 1
-            if not prefix:
-                p = as_offsets(part_offsets, below, "part_offsets")
-                empty = np.flatnonzero(np.diff(p) == 0)
-                if empty.size:
-                    raise LayoutError(
-                        f"`part_offsets` must give every part >= 1 ring (its "
-                        f"outline); part {int(empty[0])} is empty"
-                    )
-                v["part_offsets"], below = p, p.shape[0] - 1
-            lo = as_offsets(given[prefix + "layer_offsets"], below,
-                            prefix + "layer_offsets")
-            if lo.shape[0] != n + 1:
-                raise LayoutError(
-                    f"`{prefix}layer_offsets` must have length {n + 1} (layers + 1, "
-                    f"as `slice_z`); got {lo.shape[0]}"
-                )
-            v[prefix + "coords"], v[prefix + "ring_offsets"] = c, r
-            v[prefix + "layer_offsets"] = lo
-        for name in _FIELDS:
-            object.__setattr__(self, name, _freeze_copy(v[name], given[name]))
+        v["coords"], v["ring_offsets"], v["part_offsets"] = nested_offsets(
+            coords, [("ring_offsets", ring_offsets), ("part_offsets", part_offsets)]
+        )
+        empty = np.flatnonzero(np.diff(v["part_offsets"]) == 0)
+        if empty.size:
+            raise LayoutError(
+                f"`part_offsets` must give every part >= 1 ring (its outline); "
+                f"part {int(empty[0])} is empty"
+            )
+        v["layer_offsets"] = _layer_offsets(given, "", v["part_offsets"], n)
+        v["open_coords"], v["open_ring_offsets"] = nested_offsets(
+            given["open_coords"], [("open_ring_offsets", open_ring_offsets)]
+        )
+        v["open_layer_offsets"] = _layer_offsets(given, "open_",
+                                                 v["open_ring_offsets"], n)
+        self._set_fields({name: adopt(v[name], given[name]) for name in _FIELDS})
 
     @classmethod
     def from_parts(
@@ -212,64 +207,18 @@ class SlicedModel:
                    parts.part_offsets, parts.ring_offsets, parts.coords, **kw)
 
     @property
-    def n_layers(self) -> int:
-        """Number of layers ``L``."""
-        return int(self.slice_z.shape[0])
-
-    @property
-    def n_parts(self) -> int:
-        """Number of parts ``P`` over all layers."""
-        return int(self.part_offsets.shape[0] - 1)
-
-    @property
-    def n_rings(self) -> int:
-        """Number of rings ``R`` (outlines and holes) over all layers."""
-        return int(self.ring_offsets.shape[0] - 1)
-
-    @property
     def open(self) -> LayerPaths:
         """The open polylines as a :class:`vecslice.LayerPaths` (views, no copy)."""
         return LayerPaths._trusted(self.open_coords, self.open_ring_offsets,
                                    self.open_layer_offsets)
 
-    def _layer_index(self, i: int, name: str = "i") -> int:
-        n = self.n_layers
-        if not isinstance(i, (int, np.integer)) or not -n <= i < n:
-            raise InputValueError(f"`{name}` must be a layer index in [-{n}, {n}); "
-                                  f"got {i!r}")
-        return int(i) % n
-
-    def _part_rings(self, q: int) -> tuple[NDArray[np.int64], list[NDArray[np.int64]]]:
-        ro, c = self.ring_offsets, self.coords
-        r0, r1 = int(self.part_offsets[q]), int(self.part_offsets[q + 1])
-        return c[ro[r0] : ro[r0 + 1]], [c[ro[r] : ro[r + 1]] for r in range(r0 + 1, r1)]
-
-    def layer(self, i: int) -> list[tuple[NDArray[np.int64], list[NDArray[np.int64]]]]:
+    def layer(self, i: int) -> list[Part]:
         """Parts of layer ``i`` as ``[(outline (n, 2), [holes]), ...]`` views."""
-        i = self._layer_index(i)
-        q0, q1 = int(self.layer_offsets[i]), int(self.layer_offsets[i + 1])
-        return [self._part_rings(q) for q in range(q0, q1)]
+        return self._layer_parts(i, "i")
 
-    def part(self, i: int, j: int) -> tuple[NDArray[np.int64], list[NDArray[np.int64]]]:
+    def part(self, i: int, j: int) -> Part:
         """Part ``j`` of layer ``i`` as ``(outline (n, 2), [holes])`` views."""
-        i = self._layer_index(i)
-        q0, q1 = int(self.layer_offsets[i]), int(self.layer_offsets[i + 1])
-        if not isinstance(j, (int, np.integer)) or not -(q1 - q0) <= j < q1 - q0:
-            raise InputValueError(f"`j` must be a part index of layer {i} in "
-                                  f"[{-(q1 - q0)}, {q1 - q0}); got {j!r}")
-        return self._part_rings(q0 + int(j) % (q1 - q0))
-
-    def ring_layer(self) -> NDArray[np.int64]:
-        """Layer index of each ring, shape (R,)."""
-        part_layer = np.repeat(np.arange(self.n_layers, dtype=np.int64),
-                               np.diff(self.layer_offsets))
-        return np.repeat(part_layer, np.diff(self.part_offsets))
-
-    def layer_areas(self) -> NDArray[np.float64]:
-        """Area of each layer in µm², holes subtracted, shape (L,), float64."""
-        a2 = ring_area2(self.coords, self.ring_offsets)
-        out = np.bincount(self.ring_layer(), weights=a2, minlength=self.n_layers)
-        return out / 2.0
+        return self._part(i, j, ("i", "j"))
 
     def bounds(self) -> NDArray[np.int64] | None:
         """``[[xmin, ymin], [xmax, ymax]]`` in µm of all rings and open polylines.
@@ -280,17 +229,6 @@ class SlicedModel:
         if c.shape[0] == 0:
             return None
         return np.stack([c.min(axis=0), c.max(axis=0)])
-
-    @property
-    def nbytes(self) -> int:
-        """Bytes held by all arrays (coords, every offsets, per-layer values)."""
-        return int(sum(getattr(self, name).nbytes for name in _FIELDS))
-
-    def to_shapely(self, i: int) -> Any:
-        """Layer ``i`` as a shapely MultiPolygon in millimetres (needs shapely)."""
-        from vecslice.parts import to_shapely
-
-        return to_shapely(self, self._layer_index(i))
 
     def save(self, path: str | os.PathLike[str], *, compress: bool = False) -> None:
         """Write the model to ``path`` as an .npz archive (bit-exact).

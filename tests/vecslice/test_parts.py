@@ -1,4 +1,4 @@
-"""Tests for vecslice.parts: make_parts, apply_slicing_tolerance, to_shapely."""
+"""Tests for vecslice.parts (make_parts, apply_slicing_tolerance), with to_shapely."""
 
 from __future__ import annotations
 
@@ -11,7 +11,9 @@ from hypothesis import strategies as st
 
 from vecslice import InputTypeError, LayerPaths, SettingsError
 from vecslice._kernels.rings import ring_area2
-from vecslice.parts import LayerParts, apply_slicing_tolerance, make_parts, to_shapely
+from vecslice.interop import to_shapely
+from vecslice.layerparts import LayerParts
+from vecslice.parts import apply_slicing_tolerance, make_parts
 
 
 def rect(x0, y0, x1, y1, *, cw=False):
@@ -398,3 +400,27 @@ def test_nested_frames_match_shapely_union(fr):
     assert got.is_valid  # holes inside their outline, parts disjoint
     assert got.area == want.area == layer_area2(parts)[0] / 2
     assert shapely.symmetric_difference(got, want).area == 0
+
+
+def test_manifold3d_is_imported_inside_the_functions_that_use_it():
+    import ast
+    import pathlib
+
+    import vecslice
+
+    for path in pathlib.Path(vecslice.__file__).parent.glob("*.py"):
+        tree = ast.parse(path.read_text())
+        for node in tree.body:  # module level only (TYPE_CHECKING blocks are ok)
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                names = [node.module or ""]
+            assert not any(n.split(".")[0] == "manifold3d" for n in names), path.name
+
+
+def test_moved_names_are_still_importable_from_parts():
+    from vecslice import interop, layerparts, parts
+
+    assert parts.LayerParts is layerparts.LayerParts
+    assert parts.to_shapely is interop.to_shapely
