@@ -25,6 +25,7 @@ __all__ = [
     "adopt",
     "check_index",
     "freeze",
+    "is_frozen",
     "nested_offsets",
     "offsets_from_lengths",
     "ragged_take",
@@ -33,21 +34,76 @@ __all__ = [
 C = TypeVar("C", bound="RaggedContainer")
 
 
+class _ReadOnlyBase:
+    """The private base of a frozen array: exports its data read-only, nothing else.
+
+    numpy lets ``flags.writeable`` be set back to True on an array that owns its
+    data or whose base exports a writeable buffer. A frozen array is a view whose
+    base is this object: it exports the data through ``__array_interface__``
+    marked read-only and has no buffer protocol, so neither the array, nor any
+    view of it, nor ``a.base`` can be made writeable again. The array that owns
+    the memory is held only here, privately, so that it lives as long as its views.
+    """
+
+    __slots__ = ("__array_interface__", "_owner")
+
+    def __init__(self, owner: NDArray[Any]) -> None:
+        self._owner = owner
+        self.__array_interface__ = {
+            "version": 3,
+            "shape": owner.shape,
+            "typestr": owner.dtype.str,
+            "data": (owner.__array_interface__["data"][0], True),  # read-only
+            "strides": None,  # C-contiguous
+        }
+
+
+def is_frozen(a: NDArray[Any]) -> bool:
+    """True if ``a`` is a view of data frozen by :func:`freeze` (immutable)."""
+    x = a
+    while isinstance(x, np.ndarray):
+        if x.flags.writeable or x.flags.owndata:
+            return False
+        x = x.base
+    return isinstance(x, _ReadOnlyBase)
+
+
 def freeze(a: NDArray[Any]) -> NDArray[Any]:
-    """Return ``a`` read-only. The caller hands ``a`` over: nothing else writes it."""
-    a.flags.writeable = False
-    return a
+    """``a`` as an immutable array, without copying its data.
+
+    The caller hands ``a`` over: nothing else may write it afterwards. The result
+    is a read-only view (of the C-contiguous ``a``; made contiguous first if
+    needed) whose ``flags.writeable`` cannot be set back to True, nor that of any
+    view of it. Frozen arrays are returned as they are.
+
+    Examples
+    --------
+    >>> f = freeze(np.arange(3))
+    >>> f.flags.writeable = True
+    Traceback (most recent call last):
+    ...
+    ValueError: cannot set WRITEABLE flag to True of this array
+    """
+    if is_frozen(a):
+        return a
+    owner = np.ascontiguousarray(a)
+    owner.flags.writeable = False  # catches a write through a forgotten reference
+    return np.asarray(_ReadOnlyBase(owner))
 
 
 def adopt(new: NDArray[Any], given: object) -> NDArray[Any]:
-    """``new`` (coerced from the caller's ``given``) read-only, copied if shared.
+    """``new`` (coerced from the caller's ``given``) frozen, copied if shared.
 
     A container must not share memory that its caller can still write: ``new`` is
-    copied when it is the caller's own writeable array or a view. Read-only arrays
-    that own their data (another container's) are shared.
+    copied unless it is frozen already (immutable, so it is shared) or numpy made
+    it afresh from ``given`` (a list, or an array of another dtype or order).
     """
-    shared = new is given and (new.flags.writeable or not new.flags.owndata)
-    return freeze(new.copy() if shared else new)
+    if is_frozen(new):
+        return new
+    fresh = isinstance(given, (list, tuple)) or (
+        isinstance(given, np.ndarray) and not np.may_share_memory(new, given)
+    )
+    return freeze(new if fresh and new.flags.owndata else new.copy())
 
 
 def nested_offsets(
@@ -153,6 +209,11 @@ class RaggedContainer:
         })
         return self
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle and copy by fields; the copy's arrays are frozen again."""
+        names = [f.name for f in dataclasses.fields(self)]  # type: ignore[arg-type]
+        return (_rebuild, (type(self), {n: getattr(self, n) for n in names}))
+
     @property
     def nbytes(self) -> int:
         """Bytes held by the arrays, nested containers included."""
@@ -162,3 +223,8 @@ class RaggedContainer:
             if isinstance(value, (np.ndarray, RaggedContainer)):
                 total += value.nbytes
         return int(total)
+
+
+def _rebuild(cls: type[C], values: dict[str, Any]) -> C:
+    """Unpickle a container: its (fresh) arrays are frozen, nothing re-validated."""
+    return cls._trusted(**values)
