@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice._kernels.rings import ring_area2
-from vecslice._validate import check_option
+from vecslice._validate import check_bool, check_option
 from vecslice.errors import InputTypeError, InputValueError
 from vecslice.interop import to_shapely as to_shapely  # moved; re-exported
 from vecslice.layerparts import LayerParts as LayerParts  # moved; re-exported
@@ -313,6 +313,9 @@ def make_parts(
     import manifold3d
 
     loops = _check_loops(loops)
+    union_overlapping_volumes = check_bool(
+        union_overlapping_volumes, "union_overlapping_volumes"
+    )
     rule = (manifold3d.FillRule.NonZero if union_overlapping_volumes
             else manifold3d.FillRule.EvenOdd)
     n_layers = loops.n_layers

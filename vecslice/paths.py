@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vecslice._kernels.rings import ring_area2
-from vecslice.errors import LayoutError
+from vecslice._validate import as_coords, check_int
+from vecslice.errors import InputTypeError, LayoutError
 from vecslice.ragged import (
     RaggedContainer,
     adopt,
@@ -50,14 +53,46 @@ class Paths(RaggedContainer):
                           "ring_offsets": adopt(o, ring_offsets)})
 
     @classmethod
-    def from_rings(cls, rings: list[ArrayLike]) -> Paths:
-        """Build from a list of (n, 2) integer arrays."""
-        arrs = [np.asarray(r).reshape(-1, 2) for r in rings]
+    def from_rings(cls, rings: Iterable[ArrayLike]) -> Paths:
+        """Build from a sequence of rings, each an (n, 2) array of integer µm.
+
+        Parameters
+        ----------
+        rings : iterable of array_like of shape (n, 2), int
+            The rings in order; an empty ring may be ``[]``.
+
+        Returns
+        -------
+        Paths
+
+        Raises
+        ------
+        InputTypeError
+            If ``rings`` is not an iterable of arrays, or a ring is not integer.
+        InputValueError
+            If a ring does not have shape (n, 2) or a value reaches ``2**30`` µm;
+            the message names the ring (``rings[i]``).
+
+        Examples
+        --------
+        >>> Paths.from_rings([[[0, 0], [4, 0], [0, 4]], []]).ring_lengths().tolist()
+        [3, 0]
+        """
+        if isinstance(rings, (str, bytes, dict)) or not isinstance(rings, Iterable):
+            raise InputTypeError(
+                "`rings` must be a sequence of (n, 2) integer arrays; got "
+                f"{type(rings).__name__}"
+            )
+        arrs = []
+        for i, ring in enumerate(rings):
+            if isinstance(ring, (list, tuple)) and len(ring) == 0:
+                ring = np.empty((0, 2), np.int64)
+            arrs.append(as_coords(ring, f"rings[{i}]"))
         offsets = offsets_from_lengths(np.array([len(r) for r in arrs], np.int64))
         coords = (
             np.concatenate(arrs) if arrs else np.empty((0, 2), dtype=np.int64)
         )
-        return cls(coords, offsets)
+        return cls._trusted(coords, offsets)
 
     def __len__(self) -> int:
         return int(self.ring_offsets.shape[0] - 1)
@@ -68,12 +103,24 @@ class Paths(RaggedContainer):
         return len(self)
 
     def ring(self, i: int) -> NDArray[np.int64]:
-        """Vertices of ring ``i`` as a read-only (n, 2) view."""
+        """Vertices of ring ``i`` as a read-only (n, 2) view.
+
+        Negative ``i`` counts from the end (``-1`` is the last ring).
+
+        Raises
+        ------
+        InputTypeError
+            If ``i`` is not an integer.
+        InputIndexError
+            If ``i`` is not in ``[-R, R)`` (also an ``IndexError``).
+        """
+        i = check_index(i, len(self), "i", "ring index")
         return self.coords[self.ring_offsets[i] : self.ring_offsets[i + 1]]
 
     def rings(self) -> list[NDArray[np.int64]]:
         """All rings as a list of (n, 2) views."""
-        return [self.ring(i) for i in range(len(self))]
+        ro = self.ring_offsets.tolist()
+        return [self.coords[a:b] for a, b in itertools.pairwise(ro)]
 
     def ring_lengths(self) -> NDArray[np.int64]:
         """Vertex count of each ring, shape (R,)."""
@@ -128,6 +175,11 @@ class LayerPaths(RaggedContainer):
         c, r, lo = nested_offsets(
             coords, [("ring_offsets", ring_offsets), ("layer_offsets", layer_offsets)]
         )
+        if open is not None and not isinstance(open, LayerPaths):
+            raise InputTypeError(
+                f"`open` must be a vecslice.LayerPaths or None; got "
+                f"{type(open).__name__}"
+            )
         if open is not None and open.n_layers != lo.shape[0] - 1:
             raise LayoutError(
                 f"`open` must have {lo.shape[0] - 1} layers; got {open.n_layers}"
@@ -139,7 +191,9 @@ class LayerPaths(RaggedContainer):
 
     @classmethod
     def empty(cls, n_layers: int) -> LayerPaths:
-        """A LayerPaths with ``n_layers`` empty layers."""
+        """A LayerPaths with ``n_layers`` (an int >= 0) empty layers."""
+        n_layers = check_int(n_layers, "n_layers", minimum=0, setting=False,
+                             what="an integer number of layers")
         return cls(
             np.empty((0, 2), np.int64), np.zeros(1, np.int64),
             np.zeros(n_layers + 1, np.int64),
@@ -159,7 +213,17 @@ class LayerPaths(RaggedContainer):
         return self.n_layers
 
     def layer(self, k: int) -> list[NDArray[np.int64]]:
-        """Rings of layer ``k`` as a list of read-only (n, 2) views."""
+        """Rings of layer ``k`` as a list of read-only (n, 2) views.
+
+        Negative ``k`` counts from the end (``-1`` is the last layer).
+
+        Raises
+        ------
+        InputTypeError
+            If ``k`` is not an integer.
+        InputIndexError
+            If ``k`` is not in ``[-L, L)`` (also an ``IndexError``).
+        """
         k = check_index(k, self.n_layers, "k", "layer index")
         r0, r1 = self.layer_offsets[k], self.layer_offsets[k + 1]
         ro = self.ring_offsets
@@ -167,7 +231,7 @@ class LayerPaths(RaggedContainer):
 
     def paths(self) -> Paths:
         """All rings of all layers as one :class:`Paths` (layers flattened)."""
-        return Paths(self.coords, self.ring_offsets)
+        return Paths._trusted(self.coords, self.ring_offsets)
 
     def rings_per_layer(self) -> NDArray[np.int64]:
         """Number of rings in each layer, shape (L,)."""

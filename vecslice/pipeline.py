@@ -19,6 +19,7 @@ from vecslice._kernels.simplify import (
     ring_perimeters,
     simplify_rings,
 )
+from vecslice._validate import check_bool
 from vecslice.errors import InputTypeError
 from vecslice.layers import layer_heights
 from vecslice.parts import apply_slicing_tolerance, make_parts
@@ -188,6 +189,11 @@ def slice_mesh(
         raise InputTypeError(
             "`settings` must be a vecslice.SliceSettings; "
             f"got {type(settings).__name__}"
+        )
+    progress = check_bool(progress, "progress")
+    if times is not None and not isinstance(times, StageTimes):
+        raise InputTypeError(
+            f"`times` must be a vecslice.StageTimes or None; got {type(times).__name__}"
         )
     st = _Stages(_STAGES, progress)
     try:

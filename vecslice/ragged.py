@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vecslice._validate import as_coords, as_offsets
-from vecslice.errors import InputValueError
+from vecslice.errors import InputIndexError, InputTypeError
 
 __all__ = [
     "RaggedContainer",
@@ -132,13 +132,38 @@ def nested_offsets(
 
 
 def check_index(value: object, n: int, name: str, what: str) -> int:
-    """Return ``value`` as an index in ``range(n)``; negative counts from the end.
+    """Return ``value`` as an index in ``range(n)``.
 
-    ``what`` names the index in messages (e.g. ``"layer index"``).
+    Negative indices count from the end, as for Python sequences: ``-1`` is the
+    last element; ``-n <= value < n`` is valid. ``what`` names the index in
+    messages (e.g. ``"layer index"``).
+
+    Raises
+    ------
+    InputTypeError
+        If ``value`` is not an integer (floats, strings and bools are refused).
+    InputIndexError
+        If ``value`` is out of range (also an ``IndexError``).
+
+    Examples
+    --------
+    >>> check_index(-1, 3, "k", "layer index")
+    2
+    >>> check_index(3, 3, "k", "layer index")
+    Traceback (most recent call last):
+    ...
+    vecslice.errors.InputIndexError: `k` must be a layer index in [-3, 3); got 3
     """
-    if not isinstance(value, (int, np.integer)) or not -n <= value < n:
-        raise InputValueError(
-            f"`{name}` must be a {what} in [{-n}, {n}); got {value!r}"
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+        value, (int, np.integer)
+    ):
+        raise InputTypeError(
+            f"`{name}` must be an integer {what}; got {type(value).__name__} "
+            f"{value!r}"
+        )
+    if not -n <= value < n:
+        raise InputIndexError(
+            f"`{name}` must be a {what} in [{-n}, {n}); got {int(value)}"
         )
     return int(value) % n
 

@@ -6,7 +6,7 @@ from dataclasses import dataclass, fields
 from difflib import get_close_matches
 from typing import Literal
 
-from vecslice._validate import check_int, check_option
+from vecslice._validate import check_bool, check_int, check_option
 from vecslice.errors import InputTypeError
 
 __all__ = ["SLICING_TOLERANCES", "SliceSettings"]
@@ -94,12 +94,8 @@ class SliceSettings:
                       maximum=2**62)
         object.__setattr__(self, "max_area_deviation", v)
         check_option(self.slicing_tolerance, SLICING_TOLERANCES, "slicing_tolerance")
-        if not isinstance(self.union_overlapping_volumes, bool):
-            raise InputTypeError(
-                "`union_overlapping_volumes` must be a bool; got "
-                f"{type(self.union_overlapping_volumes).__name__} "
-                f"{self.union_overlapping_volumes!r}"
-            )
+        v = check_bool(self.union_overlapping_volumes, "union_overlapping_volumes")
+        object.__setattr__(self, "union_overlapping_volumes", v)
 
     def replace(self, **changes: object) -> SliceSettings:
         """A copy with some settings changed (validated like the constructor)."""

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._validate import as_int_array, as_offsets
+from vecslice._validate import as_int_array, as_offsets, check_bool
 from vecslice.errors import InputValueError, LayoutError, StorageFileError
 from vecslice.layerparts import Part, PartsLayout
 from vecslice.paths import LayerPaths
@@ -242,6 +242,7 @@ class SlicedModel(PartsLayout):
         StorageFileError
             If the file cannot be written (e.g. its directory does not exist).
         """
+        compress = check_bool(compress, "compress")
         target = Path(os.fspath(path))
         arrays = {name: getattr(self, name) for name in _FIELDS}
         writer = np.savez_compressed if compress else np.savez

@@ -424,3 +424,12 @@ def test_moved_names_are_still_importable_from_parts():
 
     assert parts.LayerParts is layerparts.LayerParts
     assert parts.to_shapely is interop.to_shapely
+
+
+@pytest.mark.parametrize("value", ["no", 0, 1, None, np.array([True])])
+def test_fill_rule_option_must_be_a_bool(value):
+    """Issue 8 D8: union_overlapping_volumes='no' was taken as True."""
+    with pytest.raises(InputTypeError, match="`union_overlapping_volumes` must be "
+                       "True or False; got"):
+        make_parts(stack3(), union_overlapping_volumes=value)
+    assert make_parts(stack3(), union_overlapping_volumes=np.False_).n_layers == 3

@@ -180,3 +180,24 @@ def test_stage_times_and_defaults_are_reported():
 def test_slice_mesh_rejects_bad_settings():
     with pytest.raises(vs.InputTypeError, match="`settings` must be"):
         vs.slice_mesh(mesh_of("Voron_Design_Cube_v7.stl"), {"layer_height": 100})
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "fragment"),
+    [
+        # Issue 8 C3: times={} raised AttributeError after the whole slice
+        ({"times": {}}, "`times` must be a vecslice.StageTimes or None; got dict"),
+        ({"times": []}, "got list"),
+        # Issue 8 D8: options by truthiness
+        ({"progress": "no"}, "`progress` must be True or False; got str 'no'"),
+        ({"progress": 1}, "`progress` must be True or False; got int 1"),
+    ],
+)
+def test_slice_mesh_checks_arguments_before_any_work(kwargs, fragment, monkeypatch):
+    def no_work(*args, **kw):
+        raise AssertionError("slicing started before the arguments were checked")
+
+    monkeypatch.setattr(vs.pipeline, "layer_heights", no_work)
+    mesh = vs.load_mesh(trimesh.creation.box((10, 10, 2)))
+    with pytest.raises(vs.InputTypeError, match=fragment):
+        vs.slice_mesh(mesh, **kwargs)

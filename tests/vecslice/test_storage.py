@@ -9,7 +9,7 @@ import pytest
 import shapely
 import trimesh
 
-from vecslice import LayerPaths, LayoutError, StorageFileError
+from vecslice import InputTypeError, LayerPaths, LayoutError, StorageFileError
 from vecslice.parts import make_parts
 from vecslice.storage import FORMAT, SlicedModel, load_sliced
 
@@ -276,3 +276,11 @@ def test_index_errors(model):
         model.layer(3)
     with pytest.raises(ValueError, match="`j` must be a part index of layer 1"):
         model.part(1, 0)
+
+
+@pytest.mark.parametrize("value", ["yes", 1, None])
+def test_compress_must_be_a_bool(model, tmp_path, value):
+    """Issue 8 D8: compress='yes' was taken by truthiness."""
+    with pytest.raises(InputTypeError, match="`compress` must be True or False"):
+        model.save(tmp_path / "m.npz", compress=value)
+    assert os.listdir(tmp_path) == []
