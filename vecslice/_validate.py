@@ -22,6 +22,7 @@ __all__ = [
     "as_offsets",
     "check_bool",
     "check_int",
+    "check_layer_count",
     "check_option",
 ]
 
@@ -159,6 +160,28 @@ def check_bool(value: object, name: str) -> bool:
     if not isinstance(value, (bool, np.bool_)):
         raise InputTypeError(f"`{name}` must be True or False; got {_describe(value)}")
     return bool(value)
+
+
+def check_layer_count(n: int, max_layers: int, why: str, fix: str) -> None:
+    """Raise a SettingsError if ``n`` layers exceed ``max_layers``.
+
+    Called before any per-layer allocation. ``why`` says where ``n`` comes from
+    (e.g. "a mesh 1000000000 µm tall at layer_height 100 µm") and ``fix`` how to
+    raise the limit, with ``{n}`` for the count (e.g. "SliceSettings(max_layers={n})").
+
+    Examples
+    --------
+    >>> check_layer_count(7, 5, "7 heights", "f(max_layers={n})")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    vecslice.errors.SettingsError: the layer count must be <= `max_layers` (5); ...
+    """
+    if n > max_layers:
+        raise SettingsError(
+            f"the layer count must be <= `max_layers` ({max_layers}); got {n} layers "
+            f"({why}). Memory and time grow with the layers; if this is intended, "
+            f"raise the limit: {fix.replace('{n}', str(n))} or more"
+        )
 
 
 def check_option(value: object, options: Sequence[str], name: str) -> str:

@@ -30,6 +30,7 @@ if TYPE_CHECKING:
 
 __all__ = ["apply_slicing_tolerance", "make_parts"]
 
+_BATCH_LAYERS = 1024  # layers per manifold3d batch (see _batches)
 _MAX_PAIRS = 10_000_000  # (hole, outline) box tests before falling back to decompose
 _KEY_SHIFT = np.int64(2**31)  # |y| < 2**30, so x * 2**31 + y orders like (x, y)
 
@@ -43,22 +44,38 @@ def _check_loops(loops: Any) -> LayerPaths:
     return loops
 
 
-def _cross_sections(
-    loops: LayerPaths, fillrule: manifold3d.FillRule
-) -> list[manifold3d.CrossSection]:
-    """One CrossSection per layer: all its rings with ``fillrule``.
+def _batches(n_layers: int) -> list[tuple[int, int]]:
+    """Layer ranges ``[k0, k1)`` handed to manifold3d together.
 
-    One float64 conversion for all vertices; rings are views sliced from it
-    (plain slicing: ``np.split`` costs several µs of overhead per ring).
+    manifold3d needs Python objects per layer (a CrossSection, its polygons); in
+    batches, only one batch's objects are alive at a time, so memory per layer
+    is that of the arrays only, however many layers there are.
     """
-    f = loops.coords.astype(np.float64)
-    ro = loops.ring_offsets.tolist()
-    rings = [f[a:b] for a, b in itertools.pairwise(ro)]
-    lo = loops.layer_offsets.tolist()
+    return [(k, min(k + _BATCH_LAYERS, n_layers))
+            for k in range(0, n_layers, _BATCH_LAYERS)]
+
+
+def _cross_sections(
+    loops: LayerPaths,
+    fillrule: manifold3d.FillRule,
+    k0: int = 0,
+    k1: int | None = None,
+) -> list[manifold3d.CrossSection]:
+    """One CrossSection per layer ``k0 <= k < k1`` (default all): its rings.
+
+    One float64 conversion for the vertices of these layers; rings are views
+    sliced from it (plain slicing: ``np.split`` costs several µs per ring).
+    """
     import manifold3d
 
+    k1 = loops.n_layers if k1 is None else k1
+    lo = loops.layer_offsets[k0 : k1 + 1].tolist()
+    ro = loops.ring_offsets[lo[0] : lo[-1] + 1]
+    f = loops.coords[ro[0] : ro[-1]].astype(np.float64)
+    rings = [f[a:b] for a, b in itertools.pairwise((ro - ro[0]).tolist())]
     cs = manifold3d.CrossSection
-    return [cs(rings[lo[k] : lo[k + 1]], fillrule) for k in range(len(lo) - 1)]
+    return [cs(rings[lo[k] - lo[0] : lo[k + 1] - lo[0]], fillrule)
+            for k in range(k1 - k0)]
 
 
 def _gather(polys: list[Any]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -67,6 +84,24 @@ def _gather(polys: list[Any]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         return np.empty((0, 2), np.float64), np.empty(0, np.int64)
     lens = np.fromiter((len(p) for p in polys), np.int64, len(polys))
     return np.concatenate(polys), lens
+
+
+def _polygons(
+    sections: list[Any],
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
+    """Float coords, ring lengths and (batch-local) layer of every output ring."""
+    polys = [cs.to_polygons() for cs in sections]
+    f, lens = _gather([p for layer_polys in polys for p in layer_polys])
+    layer = np.repeat(np.arange(len(polys), dtype=np.int64),
+                      np.fromiter(map(len, polys), np.int64, len(polys)))
+    return f, lens, layer
+
+
+def _concat(pieces: list[tuple[NDArray[Any], ...]]) -> list[NDArray[Any]]:
+    """Concatenate the per-batch arrays field by field (no copy for one batch)."""
+    if len(pieces) == 1:
+        return list(pieces[0])
+    return [np.concatenate(field) for field in zip(*pieces, strict=True)]
 
 
 def _vertex_keys(coords: NDArray[np.int64]) -> NDArray[np.int64]:
@@ -318,14 +353,32 @@ def make_parts(
     )
     rule = (manifold3d.FillRule.NonZero if union_overlapping_volumes
             else manifold3d.FillRule.EvenOdd)
-    n_layers = loops.n_layers
-    sections = _cross_sections(loops, rule)
-    polys = [cs.to_polygons() for cs in sections]
-    f, lens = _gather([p for layer_polys in polys for p in layer_polys])
-    layer = np.repeat(np.arange(n_layers, dtype=np.int64),
-                      np.fromiter(map(len, polys), np.int64, n_layers))
+    pieces, n_ids = [], 0
+    for k0, k1 in _batches(loops.n_layers) or [(0, 0)]:
+        f, lens, layer, pid, area_f, n = _union_batch(loops, rule, k0, k1)
+        pieces.append((f, lens, layer + k0, pid + n_ids, area_f))
+        n_ids += n
+    f, lens, layer, pid, area_f = _concat(pieces)
+    del pieces  # memory: the batches are concatenated
+    coords = np.rint(f, out=f).astype(np.int64)
+    del f
+    return _assemble(coords, lens, layer, pid, area_f, loops.n_layers)
+
+
+def _union_batch(
+    loops: LayerPaths, rule: manifold3d.FillRule, k0: int, k1: int
+) -> tuple[Any, ...]:
+    """Union layers ``k0 <= k < k1``: rings labelled by local layer and part.
+
+    Returns ``(f, lens, layer, pid, area_f, n_ids)``: float coords, ring lengths,
+    layer (counted from ``k0``), part id (< ``n_ids``) and float signed area.
+    """
+    n_layers = k1 - k0
+    sections = _cross_sections(loops, rule, k0, k1)
+    f, lens, layer = _polygons(sections)
     area_f = _signed_area(f, lens)
     pid, unresolved = _label_parts(f, lens, layer, area_f, n_layers)
+    n_ids = lens.shape[0]
     if unresolved.size:  # islands in holes: let manifold3d nest these layers
         parts = [(k, q) for k in unresolved.tolist() for q in sections[k].decompose()]
         part_polys = [q.to_polygons() for _, q in parts]
@@ -341,8 +394,8 @@ def make_parts(
         ])
         area_f = np.concatenate([area_f[keep], _signed_area(f2, lens2)])
         lens = np.concatenate([lens[keep], lens2])
-    coords = np.rint(f).astype(np.int64)
-    return _assemble(coords, lens, layer, pid, area_f, n_layers)
+        n_ids += len(parts)
+    return f, lens, layer, pid, area_f, n_ids
 
 
 def apply_slicing_tolerance(
@@ -383,17 +436,20 @@ def apply_slicing_tolerance(
     check_option(mode, ("middle", "inclusive", "exclusive"), "mode")
     if mode == "middle" or loops.n_layers == 0:
         return loops
-    if mode == "inclusive":
-        s = _cross_sections(loops, manifold3d.FillRule.NonZero)
-        out = [a + b for a, b in itertools.pairwise(s)] + [s[-1]]
-    else:
-        s = _cross_sections(loops, manifold3d.FillRule.EvenOdd)
-        out = [a ^ b for a, b in itertools.pairwise(s)]
-        out.append(manifold3d.CrossSection())
-    polys = [cs.to_polygons() for cs in out]
-    f, lens = _gather([p for layer_polys in polys for p in layer_polys])
-    layer = np.repeat(np.arange(len(polys), dtype=np.int64),
-                      np.fromiter(map(len, polys), np.int64, len(polys)))
+    n = loops.n_layers
+    pieces = []
+    for k0, k1 in _batches(n):  # layer k needs raw layer k + 1 too
+        if mode == "inclusive":
+            s = _cross_sections(loops, manifold3d.FillRule.NonZero, k0, min(k1 + 1, n))
+            out = [a + b for a, b in itertools.pairwise(s)]
+            top = s[-1]
+        else:
+            s = _cross_sections(loops, manifold3d.FillRule.EvenOdd, k0, min(k1 + 1, n))
+            out = [a ^ b for a, b in itertools.pairwise(s)]
+            top = manifold3d.CrossSection()
+        f, lens, layer = _polygons([*out, top] if k1 == n else out)
+        pieces.append((f, lens, layer + k0))
+    f, lens, layer = _concat(pieces)
     area_f = _signed_area(f, lens)
     coords = np.rint(f).astype(np.int64)
     coords, _, lens = _dedupe(coords, _vertex_keys(coords), lens)
@@ -404,7 +460,7 @@ def apply_slicing_tolerance(
     coords, ring_offsets = _take_rings(
         coords, offsets, order, np.zeros_like(lens), flip
     )
-    layer_offsets = _offsets(np.bincount(layer[order], minlength=len(polys)))
+    layer_offsets = _offsets(np.bincount(layer[order], minlength=n))
     return LayerPaths._trusted(coords, ring_offsets, layer_offsets, loops.open)
 
 

@@ -198,10 +198,12 @@ def slice_mesh(
     st = _Stages(_STAGES, progress)
     try:
         slice_z, print_z, thickness = st.run("layers", layer_heights, mesh, settings)
-        raw = st.run("contours", slice_contours, mesh, slice_z, stitch=False)
+        raw = st.run("contours", slice_contours, mesh, slice_z, stitch=False,
+                     max_layers=settings.max_layers)
         raw, stitched = st.run("stitch", stitch, raw)
         open_chains = raw.open.rings_per_layer() if raw.open is not None else None
         loops = st.run("simplify", clean_loops, raw, settings)
+        del raw  # memory per layer: the raw loops are not needed any more
         loops = st.run("tolerance", apply_slicing_tolerance, loops,
                        settings.slicing_tolerance)
         parts = st.run("parts", make_parts, loops,

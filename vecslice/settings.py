@@ -9,9 +9,11 @@ from typing import Literal
 from vecslice._validate import check_bool, check_int, check_option
 from vecslice.errors import InputTypeError
 
-__all__ = ["SLICING_TOLERANCES", "SliceSettings"]
+__all__ = ["MAX_LAYERS", "SLICING_TOLERANCES", "SliceSettings"]
 
 SLICING_TOLERANCES = ("middle", "inclusive", "exclusive")
+MAX_LAYERS = 100_000
+"""Default layer limit (``SliceSettings.max_layers``): 10 m of 0.1 mm layers."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -38,11 +40,17 @@ class SliceSettings:
     union_overlapping_volumes : bool, default True
         Union the loops of a layer with the NonZero rule (overlapping bodies merge);
         ``False`` uses EvenOdd.
+    max_layers : int, default 100000 (``vecslice.settings.MAX_LAYERS``)
+        Largest number of layers a slice may have, ``>= 1``. More layers raise a
+        :class:`SettingsError` before any work, naming the count: memory and time
+        grow with the layer count (100,000 layers are 10 m at 0.1 mm). Raise it
+        to slice taller objects or thinner layers.
 
     Raises
     ------
     SettingsError
-        A height is not positive, a threshold is negative or the tolerance is unknown.
+        A height is not positive, a threshold is negative, the tolerance is unknown
+        or ``max_layers`` is not positive.
     """
 
     layer_height: int = 100
@@ -53,6 +61,7 @@ class SliceSettings:
     max_area_deviation: int = 50000
     minimum_polygon_circumference: int = 1000
     union_overlapping_volumes: bool = True
+    max_layers: int = MAX_LAYERS
 
     def __init__(
         self,
@@ -65,6 +74,7 @@ class SliceSettings:
         max_area_deviation: int = 50000,
         minimum_polygon_circumference: int = 1000,
         union_overlapping_volumes: bool = True,
+        max_layers: int = MAX_LAYERS,
         **unknown: object,
     ) -> None:
         if unknown:
@@ -96,6 +106,9 @@ class SliceSettings:
         check_option(self.slicing_tolerance, SLICING_TOLERANCES, "slicing_tolerance")
         v = check_bool(self.union_overlapping_volumes, "union_overlapping_volumes")
         object.__setattr__(self, "union_overlapping_volumes", v)
+        n = check_int(self.max_layers, "max_layers", minimum=1,
+                      what="an integer number of layers")
+        object.__setattr__(self, "max_layers", n)
 
     def replace(self, **changes: object) -> SliceSettings:
         """A copy with some settings changed (validated like the constructor)."""

@@ -433,3 +433,44 @@ def test_fill_rule_option_must_be_a_bool(value):
                        "True or False; got"):
         make_parts(stack3(), union_overlapping_volumes=value)
     assert make_parts(stack3(), union_overlapping_volumes=np.False_).n_layers == 3
+
+
+def many_layers(n):
+    """n layers: a frame with an island in its hole, and a lone square, shifted."""
+    layers = []
+    for k in range(n):
+        d = k % 7
+        rings = [rect(0, 0, 100 + d, 100), rect(20, 20, 80, 80, cw=True),
+                 rect(40, 40, 60 + d, 60), rect(200, 0, 210, 10 + d)]
+        layers.append(rings[: 1 + k % 4])
+    return stack(*layers)
+
+
+@pytest.mark.parametrize("batch", [1, 2, 5])
+def test_batches_of_layers_give_the_same_parts(batch, monkeypatch):
+    """Issue 8 A5: manifold3d objects exist for one batch of layers at a time."""
+    from vecslice import parts as parts_module
+
+    loops = many_layers(23)
+    want = make_parts(loops)
+    want_inc = apply_slicing_tolerance(loops, "inclusive")
+    want_exc = apply_slicing_tolerance(loops, "exclusive")
+    seen = []
+    real = parts_module._cross_sections
+
+    def spy(lp, rule, k0=0, k1=None):
+        seen.append((k1 if k1 is not None else lp.n_layers) - k0)
+        return real(lp, rule, k0, k1)
+
+    monkeypatch.setattr(parts_module, "_BATCH_LAYERS", batch)
+    monkeypatch.setattr(parts_module, "_cross_sections", spy)
+    got = make_parts(loops)
+    for name in ("coords", "ring_offsets", "part_offsets", "layer_offsets"):
+        assert np.array_equal(getattr(got, name), getattr(want, name)), name
+    assert max(seen) == batch
+    seen.clear()
+    for mode, ref in (("inclusive", want_inc), ("exclusive", want_exc)):
+        out = apply_slicing_tolerance(loops, mode)
+        for name in ("coords", "ring_offsets", "layer_offsets"):
+            assert np.array_equal(getattr(out, name), getattr(ref, name)), (mode, name)
+    assert max(seen) == batch + 1  # each batch also needs the next raw layer
