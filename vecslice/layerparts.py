@@ -14,11 +14,56 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vecslice._kernels.rings import ring_area2
+from vecslice.errors import LayoutError
 from vecslice.ragged import RaggedContainer, adopt, check_index, nested_offsets
 
-__all__ = ["LayerParts", "PartsLayout"]
+__all__ = ["LayerParts", "PartsLayout", "check_part_rings"]
 
 Part = tuple[NDArray[np.int64], list[NDArray[np.int64]]]
+
+
+def check_part_rings(
+    coords: NDArray[np.int64],
+    ring_offsets: NDArray[np.int64],
+    part_offsets: NDArray[np.int64],
+    layer_offsets: NDArray[np.int64],
+) -> None:
+    """Raise a LayoutError unless every part is an outline and its holes.
+
+    Every part has >= 1 ring, every ring >= 3 vertices, every outline (first ring
+    of a part) a positive area (CCW) and every hole a negative area (CW). The
+    offsets are already valid.
+    """
+    def where(r: int) -> str:
+        q = int(np.searchsorted(part_offsets, r, side="right")) - 1
+        k = int(np.searchsorted(layer_offsets, q, side="right")) - 1
+        role = "the outline" if r == part_offsets[q] else "a hole"
+        return f"ring {r} ({role} of part {q}, layer {k})"
+
+    empty = np.flatnonzero(np.diff(part_offsets) == 0)
+    if empty.size:
+        raise LayoutError(
+            f"`part_offsets` must give every part >= 1 ring (its outline); "
+            f"part {int(empty[0])} is empty"
+        )
+    lens = np.diff(ring_offsets)
+    small = np.flatnonzero(lens < 3)
+    if small.size:
+        r = int(small[0])
+        raise LayoutError(
+            f"every ring must have >= 3 vertices; {where(r)} has {int(lens[r])}"
+        )
+    a2 = ring_area2(coords, ring_offsets)
+    is_outline = np.zeros(a2.shape[0], dtype=bool)
+    is_outline[part_offsets[:-1]] = True
+    bad = np.flatnonzero(np.where(is_outline, a2 <= 0, a2 >= 0))
+    if bad.size:
+        r = int(bad[0])
+        want = ("counter-clockwise (area > 0)" if is_outline[r]
+                else "clockwise (area < 0)")
+        raise LayoutError(
+            f"{where(r)} must be {want}; got twice the signed area {int(a2[r])} µm²"
+        )
 
 
 class PartsLayout(RaggedContainer):
@@ -104,6 +149,12 @@ class LayerParts(PartsLayout):
     layer_offsets : ndarray of shape (L + 1,), int64
         Layer starts in the parts.
 
+    Raises
+    ------
+    LayoutError
+        If an offsets array is invalid, a part has no ring, a ring fewer than 3
+        vertices, an outline is not CCW or a hole not CW.
+
     Examples
     --------
     >>> sq = [[0, 0], [10, 0], [10, 10], [0, 10]]
@@ -136,6 +187,7 @@ class LayerParts(PartsLayout):
             ("ring_offsets", ring_offsets), ("part_offsets", part_offsets),
             ("layer_offsets", layer_offsets),
         ])
+        check_part_rings(*arrays)
         self._set_fields({
             name: adopt(a, given[name]) for name, a in zip(given, arrays, strict=True)
         })

@@ -8,20 +8,31 @@ Open polylines of broken meshes are kept beside them with their own offsets.
 from __future__ import annotations
 
 import os
-import tempfile
-import zipfile
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._validate import as_int_array, as_offsets, check_bool
-from vecslice.errors import InputValueError, LayoutError, StorageFileError
-from vecslice.layerparts import Part, PartsLayout
+from vecslice._validate import as_int_array, as_offsets, check_bool, check_int
+from vecslice.errors import (
+    InputTypeError,
+    InputValueError,
+    LayoutError,
+    StorageFileError,
+)
+from vecslice.layerparts import Part, PartsLayout, check_part_rings
+from vecslice.npz import (
+    MAX_BYTES,
+    Member,
+    check_path,
+    open_archive,
+    read_array,
+    read_members,
+    write_atomic,
+)
 from vecslice.paths import LayerPaths
-from vecslice.ragged import adopt, nested_offsets
+from vecslice.ragged import adopt, freeze, nested_offsets
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "SlicedModel", "load_sliced"]
 
@@ -77,8 +88,9 @@ class SlicedModel(PartsLayout):
     Raises
     ------
     LayoutError
-        If an offsets array is invalid, a part has no ring, or the per-layer
-        arrays disagree on ``L``.
+        If an offsets array is invalid, the per-layer arrays disagree on ``L``, a
+        part has no ring, a ring fewer than 3 vertices, an outline is not CCW
+        (positive area) or a hole not CW.
 
     Examples
     --------
@@ -152,13 +164,9 @@ class SlicedModel(PartsLayout):
         v["coords"], v["ring_offsets"], v["part_offsets"] = nested_offsets(
             coords, [("ring_offsets", ring_offsets), ("part_offsets", part_offsets)]
         )
-        empty = np.flatnonzero(np.diff(v["part_offsets"]) == 0)
-        if empty.size:
-            raise LayoutError(
-                f"`part_offsets` must give every part >= 1 ring (its outline); "
-                f"part {int(empty[0])} is empty"
-            )
         v["layer_offsets"] = _layer_offsets(given, "", v["part_offsets"], n)
+        check_part_rings(v["coords"], v["ring_offsets"], v["part_offsets"],
+                         v["layer_offsets"])
         v["open_coords"], v["open_ring_offsets"] = nested_offsets(
             given["open_coords"], [("open_ring_offsets", open_ring_offsets)]
         )
@@ -233,36 +241,40 @@ class SlicedModel(PartsLayout):
     def save(self, path: str | os.PathLike[str], *, compress: bool = False) -> None:
         """Write the model to ``path`` as an .npz archive (bit-exact).
 
-        The file is written to a temporary file beside ``path`` and renamed into
-        place, so a failed save leaves no partial file. ``path`` is used as given
-        (no ``.npz`` is appended). ``compress=True`` uses zip deflate.
+        The file is written to a hidden temporary file beside ``path`` and renamed
+        into place, so a failed or interrupted save (error, Ctrl-C, SIGTERM) leaves
+        no partial file. ``path`` is used as given (no ``.npz`` is appended); a
+        symbolic link is written through (the file it points to is replaced). A
+        new file gets the permissions ``0o666 & ~umask``; an overwritten file keeps
+        its mode.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file to write.
+        compress : bool, default False
+            Use zip deflate (smaller, slower).
 
         Raises
         ------
+        InputTypeError
+            If ``path`` is not a path or ``compress`` not a bool.
+        InputValueError
+            If ``path`` is empty.
         StorageFileError
-            If the file cannot be written (e.g. its directory does not exist).
+            If the file cannot be written (e.g. its directory does not exist, it is
+            a directory or a symbolic link loop).
         """
         compress = check_bool(compress, "compress")
-        target = Path(os.fspath(path))
+        p = check_path(path)
         arrays = {name: getattr(self, name) for name in _FIELDS}
-        writer = np.savez_compressed if compress else np.savez
-        tmp = None
-        try:
-            fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp",
-                                       dir=target.parent)
-            with os.fdopen(fd, "wb") as fh:
-                writer(fh, format=np.array(FORMAT), version=np.array(FORMAT_VERSION),
-                       **arrays)
-            os.replace(tmp, target)
-            tmp = None
-        except OSError as exc:
-            raise StorageFileError(
-                f"cannot save a vecslice model to {os.fspath(path)!r}: "
-                f"{exc.strerror or exc}"
-            ) from exc
-        finally:
-            if tmp is not None and os.path.exists(tmp):
-                os.unlink(tmp)
+
+        def write(fh: Any) -> None:
+            writer = np.savez_compressed if compress else np.savez
+            writer(fh, format=np.array(FORMAT), version=np.array(FORMAT_VERSION),
+                   **arrays)
+
+        write_atomic(p, write)
 
     def __repr__(self) -> str:
         return (
@@ -273,13 +285,23 @@ class SlicedModel(PartsLayout):
         )
 
 
-def load_sliced(path: str | os.PathLike[str]) -> SlicedModel:
+def load_sliced(
+    path: str | os.PathLike[str], *, max_bytes: int = MAX_BYTES
+) -> SlicedModel:
     """Read a model written by :meth:`SlicedModel.save` (bit-exact).
+
+    Hostile files are refused before any array is inflated: the ``.npy`` header
+    of every member is read first and its dtype, its shape against the others
+    and the member's size are checked, as well as the compression ratio and the
+    total size (``max_bytes``). The model is then validated like a constructed
+    one, including ring sizes and orientations.
 
     Parameters
     ----------
     path : str or os.PathLike
         The .npz file.
+    max_bytes : int, default 2**32 (``vecslice.npz.MAX_BYTES``, 4 GiB)
+        Largest total size of the arrays; raise it for larger models.
 
     Returns
     -------
@@ -287,10 +309,13 @@ def load_sliced(path: str | os.PathLike[str]) -> SlicedModel:
 
     Raises
     ------
+    InputTypeError, InputValueError
+        If ``path`` is not a path or empty, or ``max_bytes`` not an int >= 0.
     StorageFileError
         If ``path`` is missing, a directory, not an .npz archive, not a vecslice
-        model, of a newer format version, or holds arrays of the wrong dtype or
-        layout. The message names the path.
+        model, of a newer format version, too large, damaged, or holds arrays of
+        the wrong dtype, shape or layout (such as a clockwise outline or a ring of
+        fewer than 3 vertices). The message names the path.
 
     Examples
     --------
@@ -302,58 +327,91 @@ def load_sliced(path: str | os.PathLike[str]) -> SlicedModel:
     ...     load_sliced(os.path.join(d, "m.npz")).layer_areas().tolist()
     [50.0]
     """
-    p = os.fspath(path)
-    if not os.path.exists(p):
-        raise StorageFileError(f"{p!r} does not exist")
-    if os.path.isdir(p):
-        raise StorageFileError(f"{p!r} is a directory, not a saved vecslice model")
-    try:
-        data = np.load(p, allow_pickle=False)
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        raise StorageFileError(
-            f"{p!r} is not an .npz file written by SlicedModel.save() ({exc})"
-        ) from None
-    if not isinstance(data, np.lib.npyio.NpzFile):
-        raise StorageFileError(
-            f"{p!r} is a single .npy array, not an .npz written by SlicedModel.save()"
-        )
-    with data:
-        arrays = _read_arrays(p, data)
-    for a in arrays.values():  # fresh arrays: the model can own them without a copy
-        a.flags.writeable = False
-    try:
+    p = check_path(path)
+    max_bytes = check_int(max_bytes, "max_bytes", minimum=0, setting=False,
+                          what="an integer number of bytes")
+    with open_archive(p) as zf:
+        members = read_members(p, zf, ("format", "version", *_FIELDS),
+                               max_bytes=max_bytes)
+        _check_marker(p, zf, members)
+        _check_shapes(p, members)
+        arrays = {k: freeze(read_array(p, zf, members[k])) for k in _FIELDS}
+    try:  # fresh frozen arrays: the model holds them without a copy
         return SlicedModel(*(arrays[k] for k in _FIELDS[:7]),
                            **{k: arrays[k] for k in _FIELDS[7:]})
-    except (InputValueError, TypeError) as exc:
+    except (InputValueError, InputTypeError) as exc:
         raise StorageFileError(f"{p!r} holds an invalid vecslice model: {exc}") from exc
 
 
-def _read_arrays(p: str, data: Any) -> dict[str, NDArray[Any]]:
-    """Check the format marker and version, then read every field as int64."""
-    try:
-        marker = str(data["format"][()]) if "format" in data.files else None
-        if marker != FORMAT:
+def _check_marker(p: str, zf: Any, members: dict[str, Member]) -> None:
+    """The format marker and version, read only if they are small scalars."""
+    fmt = members.get("format")
+    marker = None
+    if fmt is not None and fmt.shape == () and fmt.dtype.kind == "U" and (
+        fmt.nbytes <= 4 * 64
+    ):
+        marker = str(read_array(p, zf, fmt)[()])
+    elif fmt is not None:
+        marker = f"<array of dtype {fmt.dtype} and shape {fmt.shape}>"
+    if marker != FORMAT:
+        raise StorageFileError(
+            f"{p!r} is not a saved vecslice model (format marker {marker!r}; "
+            f"expected {FORMAT!r})"
+        )
+    ver = members.get("version")
+    if ver is None:
+        version: object = "missing"
+    elif ver.shape != () or ver.dtype.kind not in "iu":
+        raise StorageFileError(
+            f"{p!r}: `version` must be one integer; got an array of dtype "
+            f"{ver.dtype} and shape {ver.shape}"
+        )
+    else:
+        version = int(read_array(p, zf, ver)[()])
+    if not isinstance(version, int) or not 1 <= version <= FORMAT_VERSION:
+        raise StorageFileError(
+            f"{p!r} has vecslice format version {version}; this vecslice reads "
+            f"versions 1 to {FORMAT_VERSION}"
+        )
+    missing = [k for k in _FIELDS if k not in members]
+    if missing:
+        raise StorageFileError(f"{p!r} misses the array {missing[0]!r}")
+
+
+def _check_shapes(p: str, members: dict[str, Member]) -> None:
+    """Dtypes and shapes from the headers, against each other, before reading."""
+    for k in _FIELDS:
+        m = members[k]
+        if m.dtype != np.int64:
             raise StorageFileError(
-                f"{p!r} is not a saved vecslice model (format marker {marker!r}; "
-                f"expected {FORMAT!r})"
+                f"{p!r}: array {k!r} must have dtype int64; got {m.dtype}"
             )
-        version = int(data["version"][()]) if "version" in data.files else -1
-        if not 1 <= version <= FORMAT_VERSION:
+        want = (2,) if k.endswith("coords") else (1,)
+        if len(m.shape) != want[0] or (k.endswith("coords") and m.shape[1] != 2):
+            expect = "(N, 2)" if k.endswith("coords") else "(N,)"
             raise StorageFileError(
-                f"{p!r} has vecslice format version {version}; this vecslice reads "
-                f"versions 1 to {FORMAT_VERSION}"
+                f"{p!r} holds an invalid vecslice model: `{k}` must have shape "
+                f"{expect}; got shape {m.shape}"
             )
-        missing = [k for k in _FIELDS if k not in data.files]
-        if missing:
-            raise StorageFileError(f"{p!r} misses the array {missing[0]!r}")
-        out = {k: data[k] for k in _FIELDS}
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        if isinstance(exc, StorageFileError):
-            raise
-        raise StorageFileError(f"{p!r} is a damaged .npz archive ({exc})") from None
-    for k, a in out.items():
-        if a.dtype != np.int64:
+    n = members["slice_z"].shape[0]
+    length = {k: members[k].shape[0] for k in _FIELDS}
+    for k in _FIELDS:
+        want_len = n + 1 if k.endswith("layer_offsets") else n
+        if (k in _PER_LAYER or k.endswith("layer_offsets")) and length[k] != want_len:
             raise StorageFileError(
-                f"{p!r}: array {k!r} must have dtype int64; got {a.dtype}"
+                f"{p!r} holds an invalid vecslice model: `{k}` must have length "
+                f"{want_len} (as `slice_z`); got {length[k]}"
             )
-    return out
+    checks = (
+        ("part_offsets", "ring_offsets", 1, "every part has >= 1 ring"),
+        ("ring_offsets", "coords", 3, "every ring has >= 3 vertices"),
+    )
+    for upper, lower, k, why in checks:
+        n_upper = length[upper] - 1
+        n_lower = length[lower] - (0 if lower == "coords" else 1)
+        if n_upper < 0 or k * n_upper > n_lower:
+            raise StorageFileError(
+                f"{p!r} holds an invalid vecslice model: `{upper}` has "
+                f"{length[upper]} entries, too many for {n_lower} "
+                f"{'vertices' if lower == 'coords' else 'rings'} ({why})"
+            )
