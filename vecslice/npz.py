@@ -17,7 +17,6 @@ import math
 import os
 import secrets
 import signal
-import stat
 import struct
 import threading
 import tokenize
@@ -289,7 +288,7 @@ def write_atomic(path: str, write: Callable[[IO[bytes]], None]) -> None:
                 if os.path.isdir(target):
                     raise IsADirectoryError(errno.EISDIR, "is a directory", target)
                 try:
-                    mode: int | None = stat.S_IMODE(os.stat(target).st_mode)
+                    mode: int | None = os.stat(target).st_mode & 0o777
                 except FileNotFoundError:
                     mode = None
                 fd, tmp = _create_temp(target)

@@ -74,7 +74,7 @@ def freeze(a: NDArray[Any]) -> NDArray[Any]:
     The caller hands ``a`` over: nothing else may write it afterwards. The result
     is a read-only view (of the C-contiguous ``a``; made contiguous first if
     needed) whose ``flags.writeable`` cannot be set back to True, nor that of any
-    view of it. Frozen arrays are returned as they are.
+    view of it. Frozen C-contiguous arrays are returned as they are.
 
     Examples
     --------
@@ -84,7 +84,7 @@ def freeze(a: NDArray[Any]) -> NDArray[Any]:
     ...
     ValueError: cannot set WRITEABLE flag to True of this array
     """
-    if is_frozen(a):
+    if is_frozen(a) and a.flags.c_contiguous:
         return a
     owner = np.ascontiguousarray(a)
     owner.flags.writeable = False  # catches a write through a forgotten reference

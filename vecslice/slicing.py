@@ -13,6 +13,7 @@ from vecslice._kernels.rings import group_rings
 from vecslice._kernels.topology import edge_topology
 from vecslice._validate import (
     as_int_array,
+    check_bool,
     check_coord_range,
     check_int,
     check_layer_count,
@@ -41,8 +42,7 @@ def _check_mesh(
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     from vecslice.mesh import Mesh
 
-    if not isinstance(stitch, bool):
-        raise InputTypeError(f"`stitch` must be a bool; got {stitch!r}")
+    check_bool(stitch, "stitch")
     if not isinstance(mesh, Mesh):
         raise InputTypeError(
             f"`mesh` must be a vecslice.Mesh (see vecslice.load_mesh); "

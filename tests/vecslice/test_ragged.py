@@ -152,3 +152,11 @@ def test_pickle_and_deepcopy_keep_arrays_immutable(kind):
             assert np.array_equal(a, getattr(obj, name))
         if isinstance(obj, vs.LayerPaths):
             assert clone.open.n_rings == obj.open.n_rings
+
+
+def test_frozen_views_stored_by_a_container_are_made_contiguous():
+    model = square_model()
+    strided = model.coords[::2]
+    assert is_frozen(strided) and not strided.flags.c_contiguous
+    f = freeze(strided)
+    assert f.flags.c_contiguous and is_frozen(f) and f.tolist() == strided.tolist()
