@@ -175,6 +175,12 @@ def slice_mesh(
     intersects them); :func:`vecslice.make_parts` (union with NonZero or EvenOdd,
     split into parts).
 
+    With ``settings.compat == "cura"`` the stages before the union are
+    CuraEngine's own (:mod:`vecslice.cura_pipeline`): per-face crossings, its loop
+    building, stitching, filter, simplification and open-polyline stitcher, so a
+    mesh loaded with ``load_mesh(path, compat="cura")`` reaches the union with the
+    polygons CuraEngine makes. The union stays manifold3d's (see the README).
+
     Examples
     --------
     >>> import trimesh, vecslice as vs
@@ -195,6 +201,10 @@ def slice_mesh(
         raise InputTypeError(
             f"`times` must be a vecslice.StageTimes or None; got {type(times).__name__}"
         )
+    if settings.compat == "cura":
+        from vecslice.cura_pipeline import slice_mesh_cura
+
+        return slice_mesh_cura(mesh, settings, _Stages(_STAGES, progress), times)
     st = _Stages(_STAGES, progress)
     try:
         slice_z, print_z, thickness = st.run("layers", layer_heights, mesh, settings)
