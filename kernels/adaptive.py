@@ -110,9 +110,13 @@ def zmin_order(zmin):
 
 
 @kernel(
-    types.Tuple((I64_1D_OUT, I64_1D_OUT))(I64_2D, F64_1D, I64, I64, I64, I64, I64, B1)
+    types.Tuple((I64_1D_OUT, I64_1D_OUT))(
+        I64_2D, F64_1D, I64, I64, I64, I64, I64, B1, I64
+    )
 )
-def adaptive_layers(face_z, slope, first, hmax, hmin, step, threshold, middle):
+def adaptive_layers(
+    face_z, slope, first, hmax, hmin, step, threshold, middle, max_layers
+):
     """CuraEngine's adaptive layer loop (spec section 4): ``(thickness, top)``.
 
     The allowed heights are ``hmax, hmax - step, ..., hmin``. Layer 0 is
@@ -129,9 +133,14 @@ def adaptive_layers(face_z, slope, first, hmax, hmin, step, threshold, middle):
     be skipped anyway, and if the band of one of them were empty so would be the
     band of the first candidate tested (bands shrink with ``h``).
 
+    The loop stops after ``max_layers + 1`` layers: a result longer than
+    ``max_layers`` means the schedule has more layers than that (the caller
+    raises). Nine arguments rather than a packed array, so each keeps its name.
+
     Preconditions: F >= 1 faces in any order, ``zmin <= zmax``; ``slope`` aligned
     with ``face_z``; ``first > 0``; ``0 < hmin <= hmax`` and ``(hmax - hmin) %
-    step == 0``; ``step > 0``; all values below 2**31 in size.
+    step == 0``; ``step > 0``; ``max_layers >= 1``; all values below 2**31 in
+    size.
     """
     n_faces = face_z.shape[0]
     order = zmin_order(face_z[:, 0].copy())
@@ -160,7 +169,7 @@ def adaptive_layers(face_z, slope, first, hmax, hmin, step, threshold, middle):
     nxt = 0
     z = first
     prev = first
-    while z <= max_z or n < 2:
+    while (z <= max_z or n < 2) and n <= max_layers:
         kept = 0
         for j in range(n_win):  # drop faces that ended below z
             if zmax[window[j]] >= z:

@@ -7,6 +7,7 @@ design (layer schedules, simplification, layer parts) but working on whole array
 from vecslice.adaptive import adaptive_layer_heights
 from vecslice.demo import demo_mesh
 from vecslice.errors import (
+    InputIndexError,
     InputTypeError,
     InputValueError,
     LayoutError,
@@ -33,6 +34,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "COORD_LIMIT",
+    "InputIndexError",
     "InputTypeError",
     "InputValueError",
     "LayerPaths",

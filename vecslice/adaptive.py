@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from vecslice._kernels.adaptive import adaptive_layers, lowest_corner_z
 from vecslice._kernels.adaptive import face_slopes as _face_slopes
-from vecslice._validate import check_int, check_option
+from vecslice._validate import check_int, check_layer_count, check_option
 from vecslice.errors import InputTypeError
 from vecslice.mesh import Mesh
 from vecslice.settings import SliceSettings
@@ -188,7 +188,8 @@ def adaptive_layer_heights(
     InputTypeError
         If ``mesh`` or ``settings`` has the wrong type.
     SettingsError
-        If ``frame`` is unknown.
+        If ``frame`` is unknown, or the schedule has more than
+        ``settings.max_layers`` layers (the loop stops there).
 
     Notes
     -----
@@ -239,6 +240,15 @@ def adaptive_layer_heights(
     thickness, top = adaptive_layers(
         face_z, slope, s.initial_layer_height, hmax, hmin,
         s.adaptive_variation_step, s.adaptive_threshold,
-        s.slicing_tolerance == "middle",
+        s.slicing_tolerance == "middle", s.max_layers,
     )
+    if len(top) > s.max_layers:  # the kernel stopped one layer past the limit
+        height = int(face_z[:, 1].max())
+        most = 2 + max(0, height - s.initial_layer_height) // hmin
+        check_layer_count(
+            len(top), s.max_layers,
+            f"adaptive layers stopped there; down to {hmin} µm thick on an object "
+            f"{height} µm tall they can be up to {most}",
+            f"SliceSettings(max_layers={most})",
+        )
     return top + dz, top, thickness

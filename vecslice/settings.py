@@ -6,13 +6,15 @@ from dataclasses import dataclass, fields
 from difflib import get_close_matches
 from typing import Literal
 
-from vecslice._validate import check_int, check_option
+from vecslice._validate import check_bool, check_int, check_option
 from vecslice.errors import InputTypeError, SettingsError
 
-__all__ = ["COMPAT_MODES", "SLICING_TOLERANCES", "SliceSettings"]
+__all__ = ["COMPAT_MODES", "MAX_LAYERS", "SLICING_TOLERANCES", "SliceSettings"]
 
 SLICING_TOLERANCES = ("middle", "inclusive", "exclusive")
 COMPAT_MODES = ("vecslice", "cura")
+MAX_LAYERS = 100_000
+"""Default layer limit (``SliceSettings.max_layers``): 10 m of 0.1 mm layers."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,6 +52,11 @@ class SliceSettings:
         CuraEngine hands to its union; the union itself stays manifold3d's. The
         default ``'vecslice'`` computes one crossing per mesh edge, rounded once,
         so loops are watertight by construction.
+    max_layers : int, default 100000 (``vecslice.settings.MAX_LAYERS``)
+        Largest number of layers a slice may have, ``>= 1``. More layers raise a
+        :class:`SettingsError` before any work, naming the count: memory and time
+        grow with the layer count (100,000 layers are 10 m at 0.1 mm). Raise it
+        to slice taller objects or thinner layers.
     adaptive_layers : bool, default False
         Use CuraEngine's adaptive layer heights (Cura
         ``adaptive_layer_height_enabled``) instead of the uniform schedule; see
@@ -69,8 +76,8 @@ class SliceSettings:
     ------
     SettingsError
         A height is not positive, a threshold is negative, the tolerance is unknown,
-        the adaptive step is not positive or the adaptive variation leaves no
-        allowed height.
+        ``max_layers`` is not positive, the adaptive step is not positive or the
+        adaptive variation leaves no allowed height.
     """
 
     layer_height: int = 100
@@ -82,6 +89,7 @@ class SliceSettings:
     minimum_polygon_circumference: int = 1000
     union_overlapping_volumes: bool = True
     compat: Literal["vecslice", "cura"] = "vecslice"
+    max_layers: int = MAX_LAYERS
     adaptive_layers: bool = False
     adaptive_variation: int = 100
     adaptive_variation_step: int = 10
@@ -99,6 +107,7 @@ class SliceSettings:
         minimum_polygon_circumference: int = 1000,
         union_overlapping_volumes: bool = True,
         compat: Literal["vecslice", "cura"] = "vecslice",
+        max_layers: int = MAX_LAYERS,
         adaptive_layers: bool = False,
         adaptive_variation: int = 100,
         adaptive_variation_step: int = 10,
@@ -133,15 +142,16 @@ class SliceSettings:
         object.__setattr__(self, "max_area_deviation", v)
         check_option(self.slicing_tolerance, SLICING_TOLERANCES, "slicing_tolerance")
         check_option(self.compat, COMPAT_MODES, "compat")
-        for name in ("union_overlapping_volumes", "adaptive_layers"):
-            value = getattr(self, name)
-            if not isinstance(value, bool):
-                raise InputTypeError(
-                    f"`{name}` must be a bool; got {type(value).__name__} {value!r}"
-                )
+        v = check_bool(self.union_overlapping_volumes, "union_overlapping_volumes")
+        object.__setattr__(self, "union_overlapping_volumes", v)
+        n = check_int(self.max_layers, "max_layers", minimum=1,
+                      what="an integer number of layers")
+        object.__setattr__(self, "max_layers", n)
         self._check_adaptive(limit)
 
     def _check_adaptive(self, limit: int) -> None:
+        on = check_bool(self.adaptive_layers, "adaptive_layers")
+        object.__setattr__(self, "adaptive_layers", on)
         # ADAPTIVE.md section 1: a step <= 0 never ends CuraEngine's list of allowed
         # heights; a negative variation leaves it empty (undefined behaviour there)
         step = check_int(self.adaptive_variation_step, "adaptive_variation_step",

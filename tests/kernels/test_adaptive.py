@@ -163,6 +163,7 @@ def _run_kernel(c):
     return adaptive_layers(
         np.ascontiguousarray(c["face_z"][order]), c["slope"][order], c["first"],
         h[0], h[-1], c["step"], c["threshold"], c["tolerance"] == "middle",
+        c.get("max_layers", 10**9),
     )
 
 
@@ -217,11 +218,19 @@ def test_a_face_far_below_the_bed_counts_like_any_other(c, depth):
         _run_reference(c))
 
 
+@given(face_tables(), st.integers(1, 30))
+def test_layer_loop_stops_one_layer_past_max_layers(c, max_layers):
+    full = _run_reference(c)
+    thickness, top = _run_kernel(dict(c, max_layers=max_layers))
+    got = list(zip(thickness.tolist(), top.tolist(), strict=True))
+    assert got == full[: max_layers + 1]
+
+
 def test_layer_buffer_grows_past_its_first_allocation():
     # a 5 mm vertical wall with threshold 0: 10 µm layers only (spec Q5)
     face_z = np.array([[0, 5000]], dtype=np.int64)
     thickness, top = adaptive_layers(face_z, np.array([math.pi / 2]), 300, 200, 10,
-                                     10, 0, True)
+                                     10, 0, True, 10**6)
     # forced down from layer 0, then two steps thinner per layer, then 10 µm
     assert thickness[:11].tolist() == [300, *range(200, 19, -20)]
     assert top[10] == 1400 and (thickness[11:] == 10).all() and top[-1] == 5010

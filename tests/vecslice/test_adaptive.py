@@ -306,3 +306,20 @@ def test_slice_mesh_compat_cura_uses_the_adaptive_schedule():
     assert model.slice_z.tolist() == z.tolist()
     assert model.thickness.tolist() == t.tolist()
     assert model.layer_areas().tolist() == [*[100e6] * 49, 0.0]
+
+
+def test_max_layers_stops_the_adaptive_loop():
+    # a 5 mm wall at threshold 0: 372 layers (300, 200, 180, ..., 20, then 10 µm)
+    wall = vs.Mesh([[0, 0, 0], [1000, 0, 0], [0, 0, 5000]], [[0, 1, 2]])
+    s = vs.SliceSettings(adaptive_layers=True, adaptive_threshold=0)
+    assert len(vs.layer_heights(wall, s)[0]) == 372
+    assert len(vs.layer_heights(wall, s.replace(max_layers=372))[0]) == 372
+    with pytest.raises(vs.SettingsError) as info:
+        vs.layer_heights(wall, s.replace(max_layers=371))
+    msg = str(info.value)
+    assert "must be <= `max_layers` (371); got 372 layers" in msg
+    assert "down to 10 µm thick on an object 5000 µm tall" in msg
+    assert "SliceSettings(max_layers=472)" in msg  # enough for any schedule
+    assert len(vs.layer_heights(wall, s.replace(max_layers=472))[0]) == 372
+    with pytest.raises(vs.SettingsError, match=r"`max_layers` \(5\); got 6 layers"):
+        vs.slice_mesh(wall, s.replace(max_layers=5))

@@ -65,8 +65,8 @@ def test_default_settings():
         ({"max_deviation": -1}, ValueError, "`max_deviation` must be >= 0"),
         ({"union_overlapping_volumes": 1}, TypeError, "`union_overlapping_volumes`"),
         ({"layer_height": 2**31}, ValueError, "`layer_height` must be <="),
-        ({"adaptive_layers": 1}, TypeError, "`adaptive_layers` must be a bool; got"),
-        ({"adaptive_layers": np.True_}, TypeError, "`adaptive_layers` must be a bool"),
+        ({"adaptive_layers": 1}, TypeError,
+         "`adaptive_layers` must be True or False; got int 1"),
         ({"adaptive_layers": "yes"}, vs.InputTypeError, "got str 'yes'"),
         ({"adaptive_variation_step": 0}, vs.SettingsError,
          "`adaptive_variation_step` must be >= 1; got 0"),
@@ -107,6 +107,7 @@ def test_adaptive_settings_defaults_and_replace():
             s.adaptive_threshold) == (False, 100, 10, 200)
     t = s.replace(adaptive_layers=True, adaptive_threshold=-5)
     assert t.adaptive_layers is True and t.adaptive_threshold == -5
+    assert vs.SliceSettings(adaptive_layers=np.True_).adaptive_layers is True
     names = s.option_names()
     i = names.index("adaptive_layers")
     assert names[i:i + 4] == ("adaptive_layers", "adaptive_variation",
