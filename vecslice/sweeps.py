@@ -250,9 +250,10 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
           combos: list[tuple[int, SliceSettings]], speed: float,
           controller_ms: float) -> list[dict[str, Any]]:
     """All rows of one (mesh, layer schedule) task."""
+    from vecslice._validate import check_layer_count
     from vecslice.layers import layer_heights
     from vecslice.metrics import move_stats, volume_error
-    from vecslice.pipeline import _kept_loops
+    from vecslice.pipeline import _kept_loops, slice_mesh
     from vecslice.slicing import _contours
     from vecslice.stitch import stitch
 
@@ -260,11 +261,19 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
     if prep.error:
         return [_row(mesh_index, name, i, s, None, prep.error) for i, s in combos]
     t = time.perf_counter()
+    mesh = prep.mesh
+    first = combos[0][1]
+    cura = getattr(first, "compat", "vecslice") != "vecslice"
     try:
-        mesh = prep.mesh
-        schedule = layer_heights(mesh, combos[0][1])
-        raw = _contours(mesh.vertices, mesh.faces, schedule[0], False, prep.topology)
-        raw, stitched = stitch(raw)
+        schedule = layer_heights(mesh, first)
+        limit = getattr(first, "max_layers", None)
+        if limit is not None:
+            check_layer_count(len(schedule[0]), limit, "layers in the schedule",
+                              "SliceSettings(max_layers={n})")
+        if not cura:
+            raw = _contours(mesh.vertices, mesh.faces, schedule[0], False,
+                            prep.topology)
+            raw, stitched = stitch(raw)
     except Exception as exc:
         return [_row(mesh_index, name, i, s, None, _describe(exc)) for i, s in combos]
     prep_seconds = prep.seconds + time.perf_counter() - t
@@ -273,34 +282,39 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
     for i, s in combos:
         t = time.perf_counter()
         try:
-            c = s.minimum_polygon_circumference
-            if c not in kept:
-                kept[c] = _kept_loops(raw, c)
-            model, err = _variant(raw, stitched, schedule, s, kept[c])
+            if cura:  # CuraEngine's own stages: no raw-contour correspondence
+                model, err = slice_mesh(mesh, s), None
+            else:
+                c = s.minimum_polygon_circumference
+                if c not in kept:
+                    kept[c] = _kept_loops(raw, c)
+                model, err = _variant(raw, stitched, schedule, s, kept[c])
             moves = move_stats(model, speed_mm_s=speed, controller_ms=controller_ms,
                                percentiles=(1, 5, 50))
             vol = volume_error(model, mesh, _mesh_volume=mesh_volume)
         except Exception as exc:
             rows.append(_row(mesh_index, name, i, s, None, _describe(exc)))
             continue
+        nan = math.nan
         m = {
             "layers": model.n_layers,
-            "raw_vertices": int(raw.coords.shape[0]),
+            "raw_vertices": int(raw.coords.shape[0]) if err else nan,
             "vertices": int(model.coords.shape[0]),
             "parts": model.n_parts,
-            "max_deviation_um": err.max_deviation_um,
-            "area_error_um2": err.area_error_um2,
-            "relative_area_error": err.relative_area_error,
+            "max_deviation_um": err.max_deviation_um if err else nan,
+            "area_error_um2": err.area_error_um2 if err else nan,
+            "relative_area_error": err.relative_area_error if err else nan,
             "volume_error_mm3": vol.volume_error_mm3,
             "short_move_fraction": moves.short_move_fraction,
             "moves_per_s": moves.moves_per_s,
-            "raw_rings": raw.n_rings,
+            "raw_rings": raw.n_rings if err else nan,
             "rings": model.n_rings,
-            "dropped_rings": int(err.dropped.sum()),
-            "rings_beyond_max_deviation": err.rings_beyond(s.max_deviation),
-            "raw_to_simplified_um": _nanmax(err.raw_to_simplified_um),
-            "simplified_to_raw_um": _nanmax(err.simplified_to_raw_um),
-            "xor_sweep_rings": int((~err.linear).sum()),
+            "dropped_rings": int(err.dropped.sum()) if err else nan,
+            "rings_beyond_max_deviation": (err.rings_beyond(s.max_deviation)
+                                           if err else nan),
+            "raw_to_simplified_um": _nanmax(err.raw_to_simplified_um) if err else nan,
+            "simplified_to_raw_um": _nanmax(err.simplified_to_raw_um) if err else nan,
+            "xor_sweep_rings": int((~err.linear).sum()) if err else nan,
             "relative_volume_error": vol.relative_volume_error,
             "mesh_volume_mm3": vol.mesh_volume_mm3,
             "stack_height_um": vol.stack_height_um,
@@ -413,6 +427,8 @@ def sweep(
         :func:`vecslice.metrics.move_stats`; ``seconds`` is the wall time of the
         combination's own stages (``prep_seconds``: its task's load, topology and
         raw contours). With a client the table is the same apart from times.
+        With ``compat="cura"`` the model comes from CuraEngine's own stages
+        (:func:`vecslice.slice_mesh`) and the contour-error columns are NaN.
 
     Raises
     ------
