@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from vecslice._kernels.rings import ring_area2
 from vecslice._validate import check_bool, check_option
-from vecslice.errors import InputTypeError, InputValueError
+from vecslice.errors import InputTypeError
 from vecslice.interop import to_shapely as to_shapely  # moved; re-exported
 from vecslice.layerparts import LayerParts as LayerParts  # moved; re-exported
 from vecslice.paths import LayerPaths

@@ -201,3 +201,19 @@ def test_killed_worker_mid_sweep_still_completes(three, cluster):
     assert killed, "no worker was busy to kill"
     assert (remote["error"] == "").all()
     _same_table(local, remote)
+
+
+def test_adaptive_and_cura_rows(box):
+    t = vs.sweep(box, [{"adaptive_layers": True}, {"compat": "cura"}, {}])
+    assert (t["error"] == "").all()
+    for k, s in enumerate([vs.SliceSettings(adaptive_layers=True),
+                           vs.SliceSettings(compat="cura"), vs.SliceSettings()]):
+        model = vs.slice_mesh(box, s)
+        assert (t["layers"][k], t["vertices"][k]) == (model.n_layers,
+                                                      model.coords.shape[0])
+    assert np.isnan(t["max_deviation_um"][1]) and t["max_deviation_um"][2] == 0.0
+
+
+def test_max_layers_gives_error_rows(box):
+    t = vs.sweep(box, {"max_layers": [5], "layer_height": [100]})
+    assert t["error"][0].startswith("SettingsError") and np.isnan(t["layers"][0])
