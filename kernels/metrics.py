@@ -471,8 +471,8 @@ def compare_rings(raw, raw_offsets, simp, simp_offsets):
     Returns ``(raw_to_simp, simp_to_raw, xor_area, linear)``, each of shape (R,):
     the largest distance (µm) from a raw vertex to the simplified ring and from a
     simplified vertex to the raw ring (NaN where the simplified ring is empty);
-    ``∫ |w_raw - w_simp| dA`` in µm²; and whether the linear pass settled the
-    area (False: the sweep over the whole ring pair did).
+    ``∫ |w_raw - w_simp| dA`` in µm²; and whether the pass over the runs settled
+    the area (False: the sweep over the whole ring pair did).
     """
     n_rings = raw_offsets.shape[0] - 1
     out1 = np.empty(n_rings, np.float64)

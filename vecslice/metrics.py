@@ -80,8 +80,9 @@ class ContourErrors:
         symmetric difference of the two rings when both are simple; the whole
         raw area for a dropped ring.
     linear : ndarray of shape (R,), bool
-        Whether the linear pass (using the order correspondence) settled the
-        ring's XOR area; where not, an exact sweep over the ring pair did.
+        Whether the pass over the order correspondence settled the ring's XOR
+        area (pieces that may overlap measured together by a sweep); where not,
+        a sweep over the whole ring pair did.
     ring_layer : ndarray of shape (R,), int64
         Layer of each ring.
     raw_area_um2 : ndarray of shape (L,), float64
@@ -174,9 +175,10 @@ def contour_errors(raw: LayerPaths, simplified: LayerPaths) -> ContourErrors:
     The XOR area is a linear pass where the correspondence holds: between
     consecutive shared vertices the raw and simplified chains bound a piece whose
     area is exact (``∫|h| dt`` along its chord, or a sweep for irregular pieces);
-    pieces proven not to overlap sum to the ring's XOR area. Otherwise an exact
-    sweep over the ring pair is used (``linear`` is False there). Floating point
-    enters only where intersections are rational.
+    pieces proven not to overlap sum to the ring's XOR area, pieces that may
+    overlap are swept together. Where nothing usable is left, the whole ring pair
+    is swept (``linear`` is False there). Floating point enters only for square
+    roots and rational intersection points.
 
     Examples
     --------
