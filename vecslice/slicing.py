@@ -4,13 +4,11 @@ from __future__ import annotations
 
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._kernels.crossings import crossing_points, face_segments, range_offsets
-from vecslice._kernels.loops import link_segments
-from vecslice._kernels.rings import group_rings
-from vecslice._kernels.topology import edge_topology
+from vecslice._kernels.contours import trace_contours
 from vecslice._validate import as_int_array, check_coord_range
 from vecslice.errors import InputTypeError
 from vecslice.paths import LayerPaths
@@ -106,45 +104,17 @@ def slice_contours(
         return LayerPaths(empty.coords, empty.ring_offsets, empty.layer_offsets,
                           open=LayerPaths.empty(n_layers))
 
-    face_edges, edge_vertices, twin = edge_topology(faces, vertices.shape[0])
+    # sorted plane k is input height order[k]: it becomes output layer order[k]
+    out_layer = order.astype(np.int64)
+    twin = mesh._half_edge_twins()
     vert_layer = _layer_of_vertices(vertices, zs)
-    edge_offsets = range_offsets(vert_layer, edge_vertices)
-    points = crossing_points(vertices, edge_vertices, vert_layer, edge_offsets, zs)
-    edge_base = edge_offsets[:-1] - np.minimum(
-        vert_layer[edge_vertices[:, 0]], vert_layer[edge_vertices[:, 1]]
+    coords, ring_offsets, layer_offsets, o_coords, o_rings, o_layers = (
+        trace_contours(vertices, faces, twin, vert_layer, zs, out_layer,
+                       4 * numba.get_num_threads())
     )
-    face_offsets = range_offsets(vert_layer, faces)
-    seg_from, seg_to, seg_layer, nxt, has_prev = face_segments(
-        faces, face_edges, vert_layer, edge_base, face_offsets, twin
-    )
-    cv, cr, cl, ov, orr, ol = link_segments(nxt, has_prev, seg_from, seg_to, seg_layer)
-    if is_sorted:
-        rank = np.arange(n_layers, dtype=np.int64)
-    else:
-        rank = np.empty_like(order)
-        rank[order] = np.arange(n_layers, dtype=np.int64)
-    closed = _group_by_layer(points, cv, cr, cl, rank)
-    open_chains = _group_by_layer(points, ov, orr, ol, rank)
-    loops = LayerPaths._trusted(
-        closed.coords, closed.ring_offsets, closed.layer_offsets, open_chains
-    )
+    open_chains = LayerPaths._trusted(o_coords, o_rings, o_layers)
+    loops = LayerPaths._trusted(coords, ring_offsets, layer_offsets, open_chains)
     if stitch and open_chains.n_rings:
         loops = stitch_chains(loops).loops
     return loops
 
-
-def _group_by_layer(
-    points: NDArray[np.int64],
-    verts: NDArray[np.int64],
-    ring_offsets: NDArray[np.int64],
-    ring_layer: NDArray[np.int64],
-    rank: NDArray[np.int64],
-) -> LayerPaths:
-    """Group rings by output layer: sorted plane ``rank[i]`` becomes layer ``i``."""
-    n_layers = rank.shape[0]
-    out_layer = np.empty_like(rank)
-    out_layer[rank] = np.arange(n_layers, dtype=np.int64)
-    coords, new_ring_offsets, layer_offsets = group_rings(
-        points, verts, ring_offsets, out_layer[ring_layer], n_layers
-    )
-    return LayerPaths._trusted(coords, new_ring_offsets, layer_offsets)
