@@ -84,6 +84,8 @@ def _as_faces(value: ArrayLike, n_vertices: int) -> NDArray[np.int64]:
             f"(faces of shape {f.shape})"
         )
     flat = f.reshape(-1)
+    if flat.min() >= 0 and flat.max() < n_vertices:
+        return f
     bad = np.flatnonzero((flat < 0) | (flat >= n_vertices))
     if bad.size:
         i = int(bad[0])
