@@ -67,6 +67,9 @@ def test_manifold3d(benchmark, workload):
 @pytest.mark.benchmark(group="slice-contours")
 def test_meshlib(benchmark, workload):
     name, mesh, z = workload
+    if name == "benchy5" and not FULL:
+        pytest.skip("MeshLib on the reference workload takes a few seconds; set "
+                    "VECSLICE_BENCH_FULL=1 (report.py measures it)")
     _info(benchmark, name, mesh, z)
     v, f = mm_arrays(mesh)
     out = benchmark.pedantic(meshlib_build_slice, (v, f, z / 1000.0), rounds=1,
