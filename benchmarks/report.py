@@ -162,6 +162,43 @@ def _version(dist: str) -> str:
         return "not installed"
 
 
+@numba.njit(parallel=True, nogil=True, cache=True)
+def _floor_pass(vertices, faces, vert_layer, face_offsets, z, out):
+    """The floor: one bare parallel pass over faces computing every segment's
+    point (its start crossing, rounded as vecslice rounds it), no linking."""
+    for f in numba.prange(faces.shape[0]):
+        l0 = vert_layer[faces[f, 0]]
+        l1 = vert_layer[faces[f, 1]]
+        l2 = vert_layer[faces[f, 2]]
+        lo = min(l0, l1, l2)
+        for s in range(face_offsets[f], face_offsets[f + 1]):
+            k = lo + s - face_offsets[f]
+            code = (1 if k < l0 else 0) + (2 if k < l1 else 0) + (4 if k < l2 else 0)
+            j = (0, 0, 1, 1, 2, 0, 2, 0)[code]
+            p = faces[f, j]
+            q = faces[f, (j + 1) % 3]
+            if vertices[p, 2] > vertices[q, 2]:
+                p, q = q, p
+            t = z[k] - vertices[p, 2]
+            dz = vertices[q, 2] - vertices[p, 2]
+            for c in range(2):
+                num = (vertices[q, c] - vertices[p, c]) * t
+                r = num // dz
+                r2 = 2 * (num - r * dz)
+                if r2 > dz or (r2 == dz and num >= 0):
+                    r += 1
+                out[s, c] = vertices[p, c] + r
+
+
+def floor_inputs(mesh: vs.Mesh, z: np.ndarray):
+    vl = np.searchsorted(z, mesh.vertices[:, 2]).astype(np.int64)
+    fl = vl[mesh.faces]
+    offsets = np.zeros(mesh.n_faces + 1, dtype=np.int64)
+    np.cumsum(fl.max(axis=1) - fl.min(axis=1), out=offsets[1:])
+    out = np.empty((int(offsets[-1]), 2), dtype=np.int64)
+    return mesh.vertices, mesh.faces, vl, offsets, z, out
+
+
 def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
     timer = Timer()
     load_start = _load()
@@ -210,6 +247,8 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         pools[name] = _os_threads() - before
     full_slice(v1_um, f1)
     vs.simplify(circle_paths)
+    floor_args = floor_inputs(five, z)
+    _floor_pass(*floor_args)
     raw = vecslice_contours(v_um, f, z).paths()
     raw_paths = vs.Paths(np.ascontiguousarray(raw.coords),
                          np.ascontiguousarray(raw.ring_offsets))
@@ -217,11 +256,12 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
 
     S = {k: Series() for k in (
         "vs", "mf", "ml", "vs1", "tm", "full", "mf_full", "first", "second",
-        "simp_c", "clip_c", "simp_b", "clip_b", "s2", "s4", "s8")}
+        "simp_c", "clip_c", "simp_b", "clip_b", "s2", "s4", "s8", "floor")}
     seconds: dict[str, list[float]] = {"first": [], "second": []}
     for rep in range(args.repeat):
         print(f"repeat {rep + 1}/{args.repeat} (load {_load()})", file=sys.stderr)
         S["vs"].add(timer, vecslice_contours, v_um, f, z)
+        S["floor"].add(timer, _floor_pass, *floor_args)
         S["mf"].add(timer, manifold_build_slice, v32, f32, z_mm)
         S["ml"].add(timer, meshlib_build_slice, v32, f32, z_mm)
         S["full"].add(timer, full_slice, v_um, f)
@@ -250,6 +290,9 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
          f"MeshLib build + `extractXYPlaneSections` {fmt_s(S['ml'])}",
          fmt_ratio(ratio(S["vs"], S["ml"]))),
     ]
+    rows.append(("floor: one bare parallel pass computing every segment's point",
+                 fmt_s(S["floor"]), f"vecslice raw contours {fmt_s(S['vs'])}",
+                 fmt_ratio(ratio(S["floor"], S["vs"]))))
     if S["tm"].wall:
         rows.append(("raw contours, one Benchy", fmt_s(S["vs1"]),
                      f"trimesh `section_multiplane` {fmt_s(S['tm'])}",

@@ -369,3 +369,27 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks):
         layer_offsets[k + 1] += layer_offsets[k]
     return (coords, ring_offsets, layer_offsets, open_coords, open_offsets,
             open_rings)
+
+
+@kernel(I64_1D_OUT(I64_2D, I64_1D), parallel=True)
+def vertex_layers(vertices, z):
+    """Number of planes strictly below each vertex: ``searchsorted(z, vz, "left")``.
+
+    A vertex is above plane ``k`` iff ``k < vert_layer[v]`` (on the plane counts as
+    below). Binary search per vertex, in parallel. Precondition: ``z`` sorted.
+    """
+    n = vertices.shape[0]
+    n_planes = z.shape[0]
+    out = np.empty(n, dtype=np.int64)
+    for v in prange(n):
+        vz = vertices[v, 2]
+        lo = 0
+        hi = n_planes
+        while lo < hi:
+            mid = (lo + hi) >> 1
+            if z[mid] < vz:
+                lo = mid + 1
+            else:
+                hi = mid
+        out[v] = lo
+    return out

@@ -8,7 +8,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._kernels.contours import trace_contours
+from vecslice._kernels.contours import trace_contours, vertex_layers
 from vecslice._validate import (
     as_int_array,
     check_bool,
@@ -32,7 +32,7 @@ def _layer_of_vertices(
     A vertex is above plane ``k`` iff ``k < vert_layer[v]``, so an element whose
     vertices have layers ``l`` meets planes ``min(l) <= k < max(l)``.
     """
-    return np.searchsorted(z, vertices[:, 2], side="left").astype(np.int64)
+    return vertex_layers(vertices, z)
 
 
 def _check_mesh(

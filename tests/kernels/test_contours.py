@@ -3,7 +3,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from strategies import closed_meshes
-from vecslice._kernels.contours import trace_contours
+from vecslice._kernels.contours import trace_contours, vertex_layers
 from vecslice._kernels.crossings import crossing_points, face_segments, range_offsets
 from vecslice._kernels.loops import link_segments
 from vecslice._kernels.rings import group_rings
@@ -56,3 +56,15 @@ def test_trace_contours_equals_the_chained_kernels(case, seed, broken, n_chunks)
     ref = chained(v, f, z, out_layer)
     for a, b in zip(got, ref, strict=True):
         assert a.tolist() == b.tolist()
+
+
+@given(st.lists(st.integers(-(2**30) + 1, 2**30 - 1), min_size=1, max_size=50),
+       st.lists(st.integers(-(2**30) + 1, 2**30 - 1), min_size=0, max_size=12))
+def test_vertex_layers_is_searchsorted_left(vz, planes):
+    v = np.zeros((len(vz), 3), dtype=np.int64)
+    v[:, 2] = vz
+    z = np.sort(np.array(planes, dtype=np.int64))
+    # exact vertex heights among the planes too
+    z = np.sort(np.concatenate([z, v[: len(vz) // 2, 2]]))
+    expect = np.searchsorted(z, v[:, 2], side="left")
+    assert vertex_layers(v, z).tolist() == expect.tolist()
