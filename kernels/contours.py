@@ -15,7 +15,7 @@ from numba import prange, types
 
 from ._jit import kernel
 from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
-from .crossings import DOWN_EDGE, UP_EDGE, _round_div
+from .crossings import DOWN_EDGE, UP_EDGE
 
 _OUT = types.Tuple(
     (I64_2D_OUT, I64_1D_OUT, I64_1D_OUT, I64_2D_OUT, I64_1D_OUT, I64_1D_OUT)
@@ -30,16 +30,30 @@ def _code(l0, l1, l2, k):
 
 @kernel(inline="always")
 def _point(vertices, p, q, zk):
-    """Crossing of edge p-q with plane zk, from its lower end (as crossing_points)."""
-    if vertices[p, 2] > vertices[q, 2]:
-        p, q = q, p
-    xa = vertices[p, 0]
-    ya = vertices[p, 1]
-    za = vertices[p, 2]
-    dz = vertices[q, 2] - za
+    """Crossing of edge p-q with plane zk, from its lower end (as crossing_points).
+
+    Branch-free: which end is lower and the rounding direction are data, not
+    jumps (both are unpredictable along a loop).
+    """
+    zp = vertices[p, 2]
+    zq = vertices[q, 2]
+    swap = zp > zq
+    a = q if swap else p
+    b = p if swap else q
+    xa = vertices[a, 0]
+    ya = vertices[a, 1]
+    za = zq if swap else zp
+    dz = (zp if swap else zq) - za
     t = zk - za
-    return (xa + _round_div((vertices[q, 0] - xa) * t, dz),
-            ya + _round_div((vertices[q, 1] - ya) * t, dz))
+    nx = (vertices[b, 0] - xa) * t
+    ny = (vertices[b, 1] - ya) * t
+    qx = nx // dz
+    qy = ny // dz
+    rx = 2 * (nx - qx * dz)
+    ry = 2 * (ny - qy * dz)
+    qx += np.int64((rx > dz) | ((rx == dz) & (nx >= 0)))
+    qy += np.int64((ry > dz) | ((ry == dz) & (ny >= 0)))
+    return xa + qx, ya + qy
 
 
 @kernel(inline="always")
@@ -109,12 +123,10 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
                     code = _code(l0, l1, l2, k)
                     jd = down_of[code]
                     ju = up_of[code]
-                    if jd == 0:
-                        x, y = _point(vertices, p0, p1, zk)
-                    elif jd == 1:
-                        x, y = _point(vertices, p1, p2, zk)
-                    else:
-                        x, y = _point(vertices, p2, p0, zk)
+                    # jd is unpredictable along a loop: select, don't branch
+                    pa = p0 if jd == 0 else (p1 if jd == 1 else p2)
+                    pb = p1 if jd == 0 else (p2 if jd == 1 else p0)
+                    x, y = _point(vertices, pa, pb, zk)
                     out_coords[pos, 0] = x
                     out_coords[pos, 1] = y
                     pos += 1
