@@ -78,13 +78,11 @@ def _importance(has_w, bx, by, bw, vx, vy, vw, ax, ay, aw, max_res2, max_area):
     if has_w and _area_deviation(bx, by, bw, vx, vy, vw, ax, ay, aw) > max_area:
         return INT64_MAX
     d2 = dist2_from_line(vx, vy, bx, by, ax, ay)
-    if d2 <= MIN_RES2:
-        return d2
     lb = (bx - vx) * (bx - vx) + (by - vy) * (by - vy)
     la = (ax - vx) * (ax - vx) + (ay - vy) * (ay - vy)
-    if lb > max_res2 and la > max_res2:
-        return INT64_MAX
-    return d2
+    # unpredictable on noisy input: one select instead of branches
+    long_edges = (d2 > MIN_RES2) & (lb > max_res2) & (la > max_res2)
+    return INT64_MAX if long_edges else d2
 
 
 @kernel(
