@@ -241,3 +241,17 @@ def test_topology_is_built_once_per_mesh(monkeypatch):
     assert 3 <= len(calls) <= 6
     assert all(o.coords.tolist() == first.coords.tolist() for o in outs)
     assert all(o.ring_offsets.tolist() == first.ring_offsets.tolist() for o in outs)
+
+
+def test_pickled_mesh_leaves_its_topology_behind_and_slices_the_same():
+    import pickle
+
+    mesh = vs.load_mesh(trimesh.creation.icosphere(subdivisions=2, radius=10))
+    first = vs.slice_contours(mesh, [-5000, 0, 5000])
+    payload = pickle.dumps(mesh)
+    assert len(payload) < mesh.vertices.nbytes + mesh.faces.nbytes + 2000
+    copy = pickle.loads(payload)
+    assert not copy.vertices.flags.writeable and not copy.faces.flags.writeable
+    again = vs.slice_contours(copy, [-5000, 0, 5000])
+    assert again.coords.tolist() == first.coords.tolist()
+    assert again.ring_offsets.tolist() == first.ring_offsets.tolist()
