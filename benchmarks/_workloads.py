@@ -54,19 +54,66 @@ def heights(mesh: vs.Mesh) -> np.ndarray:
     return z
 
 
-def manifold_slices(mesh: vs.Mesh, z: np.ndarray) -> list:
-    """manifold3d's way: build a Manifold, then slice at every height."""
+def mm_arrays(mesh: vs.Mesh, dtype=np.float32) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh as a peer's natural input: float millimetre vertices, faces."""
+    return (mesh.vertices / 1000.0).astype(dtype), mesh.faces.copy()
+
+
+def vecslice_contours(vertices_um: np.ndarray, faces: np.ndarray,
+                      z: np.ndarray) -> vs.LayerPaths:
+    """vecslice's way from int64 µm arrays: build a Mesh, cut every height."""
+    return vs.slice_contours(vs.Mesh.from_arrays(vertices_um, faces), z)
+
+
+def manifold_build_slice(vertices_mm: np.ndarray, faces: np.ndarray,
+                         z_mm: np.ndarray) -> list:
+    """manifold3d's way from float32 mm arrays: build a Manifold, slice each height."""
     import manifold3d as m3
 
-    m = m3.Manifold(m3.Mesh(vert_properties=mesh.vertices.astype(np.float32),
-                            tri_verts=mesh.faces.astype(np.uint32)))
-    return [m.slice(float(zk)) for zk in z]
+    m = m3.Manifold(m3.Mesh(vert_properties=np.asarray(vertices_mm, np.float32),
+                            tri_verts=np.asarray(faces, np.uint32)))
+    return [m.slice(float(zk)) for zk in z_mm]
+
+
+def meshlib_build_slice(vertices_mm: np.ndarray, faces: np.ndarray,
+                        z_mm: np.ndarray) -> list:
+    """MeshLib's way from float32 mm arrays: ``meshFromFacesVerts``, then per height
+    ``extractXYPlaneSections`` and ``planeSectionsToContours2f`` (its default AABB
+    tree is built by the first section, inside the timing)."""
+    import meshlib.mrmeshnumpy as mn
+    import meshlib.mrmeshpy as mm
+
+    mesh = mn.meshFromFacesVerts(np.asarray(faces, np.int32),
+                                 np.asarray(vertices_mm, np.float32))
+    part = mm.MeshPart(mesh)
+    xf = mm.AffineXf3f()
+    return [mm.planeSectionsToContours2f(
+        mesh, mm.extractXYPlaneSections(part, float(zk)), xf) for zk in z_mm]
+
+
+def trimesh_build_sections(vertices_mm: np.ndarray, faces: np.ndarray,
+                           z_mm: np.ndarray) -> list:
+    """trimesh's way from float64 mm arrays: a Trimesh, section_multiplane."""
+    import trimesh
+
+    tm = trimesh.Trimesh(np.asarray(vertices_mm, np.float64), faces, process=False)
+    return tm.section_multiplane(plane_origin=[0, 0, 0], plane_normal=[0, 0, 1],
+                                 heights=np.asarray(z_mm, np.float64))
+
+
+def manifold_slices(mesh: vs.Mesh, z: np.ndarray) -> list:
+    """manifold3d build + slice of a vecslice Mesh (mm conversion included)."""
+    v, f = mm_arrays(mesh)
+    return manifold_build_slice(v, f, z / 1000.0)
+
+
+def meshlib_slices(mesh: vs.Mesh, z: np.ndarray) -> list:
+    """MeshLib build + sections of a vecslice Mesh (mm conversion included)."""
+    v, f = mm_arrays(mesh)
+    return meshlib_build_slice(v, f, z / 1000.0)
 
 
 def trimesh_sections(mesh: vs.Mesh, z: np.ndarray) -> list:
-    """trimesh's way: section_multiplane at every height (µm as float units)."""
-    import trimesh
-
-    tm = trimesh.Trimesh(mesh.vertices.astype(np.float64), mesh.faces, process=False)
-    return tm.section_multiplane(plane_origin=[0, 0, 0], plane_normal=[0, 0, 1],
-                                 heights=z.astype(np.float64))
+    """trimesh section_multiplane of a vecslice Mesh (mm conversion included)."""
+    v, f = mm_arrays(mesh, np.float64)
+    return trimesh_build_sections(v, f, z / 1000.0)

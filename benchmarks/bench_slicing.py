@@ -1,9 +1,11 @@
-"""slice_contours beside manifold3d (build + slice) and trimesh section_multiplane.
+"""slice_contours beside manifold3d, MeshLib (build + slice) and trimesh.
 
-Same meshes, same heights, one run. The timed work starts from a freshly built
-``vs.Mesh`` (vecslice derives its edge topology inside the timing, just as
-manifold3d builds its ``Manifold``). ``python benchmarks/slicing_ratios.py`` prints
-the ratios. trimesh takes about a minute on the reference workload, so its
+Same meshes, same heights, one run. Every library starts from its natural input
+(vecslice: int64 µm arrays; the peers: float mm arrays) and builds its structures
+inside the timing (``vs.Mesh.from_arrays`` with its merge and topology, manifold3d's
+``Manifold``, MeshLib's mesh and AABB tree, a ``trimesh.Trimesh``).
+``python benchmarks/report.py`` prints the ratios (interleaved, repeated, with the
+spread). trimesh takes about a minute on the reference workload, so its
 ``benchy5`` case runs only with VECSLICE_BENCH_FULL=1.
 """
 
@@ -12,10 +14,19 @@ from __future__ import annotations
 import os
 
 import numba
+import numpy as np
 import pytest
 
 import vecslice as vs
-from _workloads import WORKLOADS, heights, manifold_slices, trimesh_sections
+from _workloads import (
+    WORKLOADS,
+    heights,
+    manifold_build_slice,
+    meshlib_build_slice,
+    mm_arrays,
+    trimesh_build_sections,
+    vecslice_contours,
+)
 
 FULL = os.environ.get("VECSLICE_BENCH_FULL") == "1"
 
@@ -37,7 +48,8 @@ def _info(benchmark, name, mesh, z):
 def test_vecslice(benchmark, workload):
     name, mesh, z = workload
     _info(benchmark, name, mesh, z)
-    loops = benchmark(vs.slice_contours, mesh, z)
+    v, f = mesh.vertices.copy(), mesh.faces.copy()
+    loops = benchmark(vecslice_contours, v, f, z)
     assert loops.n_layers == len(z)
     assert (loops.rings_per_layer() > 0).all()
 
@@ -46,8 +58,32 @@ def test_vecslice(benchmark, workload):
 def test_manifold3d(benchmark, workload):
     name, mesh, z = workload
     _info(benchmark, name, mesh, z)
-    out = benchmark.pedantic(manifold_slices, (mesh, z), rounds=1, iterations=1)
+    v, f = mm_arrays(mesh)
+    out = benchmark.pedantic(manifold_build_slice, (v, f, z / 1000.0), rounds=1,
+                             iterations=1)
     assert len(out) == len(z) and out[len(z) // 2].area() > 0
+
+
+@pytest.mark.benchmark(group="slice-contours")
+def test_meshlib(benchmark, workload):
+    name, mesh, z = workload
+    if name == "benchy5" and not FULL:
+        pytest.skip("MeshLib on the reference workload takes a few seconds; set "
+                    "VECSLICE_BENCH_FULL=1 (report.py measures it)")
+    _info(benchmark, name, mesh, z)
+    v, f = mm_arrays(mesh)
+    out = benchmark.pedantic(meshlib_build_slice, (v, f, z / 1000.0), rounds=1,
+                             iterations=1)
+    assert len(out) == len(z) and len(out[len(z) // 2]) > 0
+
+
+@pytest.mark.benchmark(group="slice-contours")
+def test_vecslice_second_slice(benchmark, workload):
+    # the topology is built by the first slice of a Mesh and reused after it
+    name, mesh, z = workload
+    _info(benchmark, name, mesh, z)
+    loops = benchmark(vs.slice_contours, mesh, z + 50)
+    assert loops.n_layers == len(z)
 
 
 @pytest.mark.benchmark(group="slice-contours")
@@ -57,5 +93,7 @@ def test_trimesh(benchmark, workload):
         pytest.skip("trimesh on the reference workload takes ~1 min; set "
                     "VECSLICE_BENCH_FULL=1 (slicing_ratios.py measures it)")
     _info(benchmark, name, mesh, z)
-    out = benchmark.pedantic(trimesh_sections, (mesh, z), rounds=1, iterations=1)
+    v, f = mm_arrays(mesh, np.float64)
+    out = benchmark.pedantic(trimesh_build_sections, (v, f, z / 1000.0), rounds=1,
+                             iterations=1)
     assert len(out) == len(z) and out[len(z) // 2] is not None

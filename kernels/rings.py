@@ -4,7 +4,7 @@ import numpy as np
 from numba import types
 
 from ._jit import kernel
-from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+from ._types import B1_1D, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 
 
 @kernel(I64_1D_OUT(I64_2D, I64_1D))
@@ -71,3 +71,33 @@ def group_rings(points, vertex_ids, ring_offsets, ring_key, n_keys):
             coords[j, 1] = points[p, 1]
             j += 1
     return coords, new_offsets, key_offsets
+
+
+@kernel(types.Tuple((I64_2D_OUT, I64_1D_OUT))(I64_2D, I64_1D, B1_1D))
+def take_rings(coords, ring_offsets, keep):
+    """The rings where ``keep`` is true, in order: ``(coords, ring_offsets)``.
+
+    Each kept ring's vertices are copied as one block; nothing per vertex but the
+    copy. Preconditions: offsets valid; ``len(keep) == len(ring_offsets) - 1``.
+    """
+    n_rings = ring_offsets.shape[0] - 1
+    n_kept = 0
+    n_coords = 0
+    for r in range(n_rings):
+        if keep[r]:
+            n_kept += 1
+            n_coords += ring_offsets[r + 1] - ring_offsets[r]
+    out = np.empty((n_coords, 2), dtype=np.int64)
+    offsets = np.empty(n_kept + 1, dtype=np.int64)
+    offsets[0] = 0
+    j = 0
+    i = 0
+    for r in range(n_rings):
+        if keep[r]:
+            start = ring_offsets[r]
+            stop = ring_offsets[r + 1]
+            out[j : j + stop - start] = coords[start:stop]
+            j += stop - start
+            i += 1
+            offsets[i] = j
+    return out, offsets

@@ -78,13 +78,11 @@ def _importance(has_w, bx, by, bw, vx, vy, vw, ax, ay, aw, max_res2, max_area):
     if has_w and _area_deviation(bx, by, bw, vx, vy, vw, ax, ay, aw) > max_area:
         return INT64_MAX
     d2 = dist2_from_line(vx, vy, bx, by, ax, ay)
-    if d2 <= MIN_RES2:
-        return d2
     lb = (bx - vx) * (bx - vx) + (by - vy) * (by - vy)
     la = (ax - vx) * (ax - vx) + (ay - vy) * (ay - vy)
-    if lb > max_res2 and la > max_res2:
-        return INT64_MAX
-    return d2
+    # unpredictable on noisy input: one select instead of branches
+    long_edges = (d2 > MIN_RES2) & (lb > max_res2) & (la > max_res2)
+    return INT64_MAX if long_edges else d2
 
 
 @kernel(
@@ -197,8 +195,9 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
 
     Kept vertices are compacted to the front of px/py/pw, in their original order.
     Work arrays (length >= n): prv, nxt, fl, imp, hk, hi; tq (length >= 12);
-    bits (length >= nb * ceil(n / 64)) and bq (length >= 2 * nb) for ``nb``
-    buckets (0: the heap alone).
+    bits (length >= nb * ceil(n / 64)) and bq (length 2 * nb + nb * nb, its
+    tail holding the bucket of every key below nb * nb: d where key == d * d,
+    else -1) for ``nb`` buckets (0: the heap alone).
 
     The priority queue pops (key, index) in increasing order. It is a bucket
     queue for the keys d*d with d < nb (importances are squared integer
@@ -239,6 +238,8 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
     prv[0] = n - 1
     nxt[n - 1] = 0
     nw = (n + 63) >> 6
+    lut = 2 * nb  # bq[lut + key]: d if key == d*d (d < nb), else -1
+    nb2 = nb * nb
     for q in range(nb * nw):
         bits[q] = 0
     for d in range(nb):
@@ -267,7 +268,7 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
                 f ^= _DIRTY
             k = imp[i]
             if k <= max_dev2 and (f & _FAILED) == 0:
-                d = _bucket(k, nb)
+                d = bq[lut + k] if 0 <= k < nb2 else -1
                 if d >= 0:
                     w = i >> 6
                     bits[d * nw + w] |= np.int64(1) << (i & 63)
@@ -331,7 +332,7 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
                 f ^= _DIRTY
                 if cur > k:  # re-push; dirty implies not _FAILED
                     if cur <= max_dev2:
-                        d = _bucket(cur, nb)
+                        d = bq[lut + cur] if 0 <= cur < nb2 else -1
                         if d >= 0:
                             w = i >> 6
                             bits[d * nw + w] |= np.int64(1) << (i & 63)
@@ -415,7 +416,7 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
                     kj = imp[j]
                     if kj > hwk or (kj == hwk and j > hwi):  # not passed yet
                         if (f & _DIRTY) != 0 or kj <= max_dev2:
-                            d = _bucket(kj, nb)
+                            d = bq[lut + kj] if 0 <= kj < nb2 else -1
                             if d >= 0:
                                 w = j >> 6
                                 bits[d * nw + w] |= np.int64(1) << (j & 63)
@@ -492,7 +493,9 @@ def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
         hi = np.empty(max_len, np.int64)
         tq = np.empty(12, np.int64)
         bits = np.empty(nb * ((max_len + 63) >> 6), np.int64)
-        bq = np.empty(2 * nb, np.int64)
+        bq = np.full(2 * nb + nb * nb, -1, np.int64)
+        for d in range(nb):
+            bq[2 * nb + d * d] = d
         for rr in range(r0, r1):
             start = ring_offsets[rr]
             n = ring_offsets[rr + 1] - start

@@ -166,3 +166,84 @@ def edge_face_counts(face_edges, n_edges):
         for j in range(3):
             out[face_edges[f, j]] += 1
     return out
+
+
+
+_PACK_LIMIT = 1 << 30  # vertices (and half-edges >> 2) below this pack into one int64
+
+
+@kernel(I64_1D_OUT(I64_2D, I64), parallel=True)
+def half_edge_twins(faces, n_vertices):
+    """The ``twin`` result of :func:`edge_topology` alone, without numbering edges.
+
+    ``twin[3 * f + j]`` is the opposite half-edge of the same edge where the edge
+    has exactly two half-edges running in opposite directions, and -1 elsewhere.
+    This is all that slicing needs of the topology.
+
+    Half-edges are bucketed by their smaller vertex (counting sort) as one int64
+    each: the other vertex, the direction and the half-edge id packed together, so
+    matching inside a bucket (in parallel over chunks of vertices) reads only the
+    bucket. Buckets of more than 32 half-edges are sorted first.
+
+    Preconditions: as :func:`edge_topology`.
+    """
+    n_faces = faces.shape[0]
+    n_half = 3 * n_faces
+    if n_vertices >= _PACK_LIMIT or n_half >= 4 * _PACK_LIMIT:
+        return edge_topology(faces, n_vertices)[2]
+    offsets = np.zeros(n_vertices + 1, dtype=np.int64)
+    for f in range(n_faces):
+        for j in range(3):
+            a = faces[f, j]
+            b = faces[f, (j + 1) % 3]
+            offsets[min(a, b) + 1] += 1
+    for v in range(n_vertices):
+        offsets[v + 1] += offsets[v]
+    fill = offsets[:-1].copy()
+    packed = np.empty(n_half, dtype=np.int64)
+    for f in range(n_faces):
+        for j in range(3):
+            a = faces[f, j]
+            b = faces[f, (j + 1) % 3]
+            if a < b:  # (other vertex, direction, half-edge)
+                v = a
+                key = (b << 1) | 1
+            else:
+                v = b
+                key = a << 1
+            packed[fill[v]] = (key << 32) | (3 * f + j)
+            fill[v] += 1
+    twin = np.full(n_half, -1, dtype=np.int64)
+    low = np.int64(0xFFFFFFFF)
+    n_chunks = 64
+    step = (n_vertices + n_chunks - 1) // n_chunks
+    for c in prange(n_chunks):
+        for v in range(c * step, min(n_vertices, (c + 1) * step)):
+            start = offsets[v]
+            d = offsets[v + 1] - start
+            if d < 2:
+                continue
+            if d <= _SMALL_BUCKET:
+                for i in range(start, start + d):
+                    wi = packed[i] >> 33
+                    count = 0
+                    other = -1
+                    for i2 in range(start, start + d):
+                        if packed[i2] >> 33 == wi:
+                            count += 1
+                            if i2 != i:
+                                other = i2
+                    if count == 2 and ((packed[i] ^ packed[other]) >> 32) & 1:
+                        twin[packed[i] & low] = packed[other] & low
+                continue
+            run = np.sort(packed[start : start + d])
+            i = 0
+            while i < d:
+                i2 = i + 1
+                while i2 < d and run[i2] >> 33 == run[i] >> 33:
+                    i2 += 1
+                if i2 - i == 2 and ((run[i] ^ run[i + 1]) >> 32) & 1:
+                    twin[run[i] & low] = run[i + 1] & low
+                    twin[run[i + 1] & low] = run[i] & low
+                i = i2
+    return twin

@@ -12,7 +12,7 @@ import os
 import struct
 import zipfile
 import zlib
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -91,6 +91,8 @@ def _as_faces(value: ArrayLike, n_vertices: int) -> NDArray[np.int64]:
             f"(faces of shape {f.shape})"
         )
     flat = f.reshape(-1)
+    if flat.min() >= 0 and flat.max() < n_vertices:
+        return f
     bad = np.flatnonzero((flat < 0) | (flat >= n_vertices))
     if bad.size:
         i = int(bad[0])
@@ -134,6 +136,11 @@ class Mesh:
     vertices: NDArray[np.int64]
     faces: NDArray[np.int64]
     load_info: LoadInfo | None
+    # half-edge twins of ``faces``, built by the first slice and reused by every
+    # later one (the arrays are immutable); see _half_edge_twins
+    _twins: NDArray[np.int64] | None = field(
+        default=None, init=False, repr=False, compare=False
+    )
 
     def __init__(
         self,
@@ -156,6 +163,33 @@ class Mesh:
         object.__setattr__(self, "vertices", _freeze(np.ascontiguousarray(v)))
         object.__setattr__(self, "faces", _freeze(np.ascontiguousarray(f)))
         object.__setattr__(self, "load_info", info)
+        object.__setattr__(self, "_twins", None)
+
+    def __getstate__(self) -> tuple[Any, ...]:
+        # the cached topology is not pickled: cheaper to rebuild than to ship
+        return (self.vertices, self.faces, self.load_info)
+
+    def __setstate__(self, state: tuple[Any, ...]) -> None:
+        v, f, info = state
+        self._set(v, f, info)
+
+    def _half_edge_twins(self) -> NDArray[np.int64]:
+        """Twin of every half-edge (-1 where none), built once per mesh.
+
+        ``twin[3 * f + j]`` is the half-edge that runs the other way along the edge
+        from ``faces[f, j]`` to ``faces[f, (j + 1) % 3]`` when exactly two
+        half-edges share that edge (see ``half_edge_twins``). The first call builds
+        it and caches it on the mesh; threads that race on the first call may each
+        build it (the results are equal), never a wrong one.
+        """
+        twins = self._twins
+        if twins is None:
+            from vecslice._kernels import topology
+
+            twins = topology.half_edge_twins(self.faces, self.vertices.shape[0])
+            twins.flags.writeable = False
+            object.__setattr__(self, "_twins", twins)
+        return twins
 
     @classmethod
     def _trusted(
@@ -300,7 +334,9 @@ class Mesh:
                 f"({dx}, {dy}, {dz}); got range [{lo}, {hi}]"
             )
         moved = self.vertices + np.array(d, dtype=np.int64)
-        return Mesh._trusted(moved, self.faces, self.load_info)
+        out = Mesh._trusted(moved, self.faces, self.load_info)
+        object.__setattr__(out, "_twins", self._twins)  # same faces, same topology
+        return out
 
     def repaired(self) -> Mesh:
         """Remove duplicate faces and orient every shell consistently and outward.

@@ -14,6 +14,7 @@ from typing import Any, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
+from vecslice._kernels.rings import take_rings
 from vecslice._kernels.simplify import (
     remove_degenerate_vertices,
     ring_perimeters,
@@ -24,7 +25,6 @@ from vecslice.errors import InputTypeError
 from vecslice.layers import layer_heights
 from vecslice.parts import apply_slicing_tolerance, make_parts
 from vecslice.paths import LayerPaths
-from vecslice.ragged import ragged_take
 from vecslice.settings import SliceSettings
 from vecslice.slicing import slice_contours
 from vecslice.stitch import stitch
@@ -47,22 +47,31 @@ class StageTimes:
         return f"{parts} (total {total:.3f} s)"
 
 
+def _kept_layer_offsets(
+    paths: LayerPaths, keep: NDArray[np.bool_]
+) -> NDArray[np.int64]:
+    """Layer offsets of the rings of ``paths`` where ``keep`` is true."""
+    kept_before = np.zeros(keep.shape[0] + 1, dtype=np.int64)
+    np.cumsum(keep, out=kept_before[1:])
+    return kept_before[paths.layer_offsets]
+
+
 def _keep_rings(paths: LayerPaths, keep: NDArray[np.bool_]) -> LayerPaths:
     """The rings of ``paths`` where ``keep`` is true, layers preserved."""
-    idx = np.flatnonzero(keep).astype(np.int64)
-    ring_offsets, items = ragged_take(paths.ring_offsets, idx)
-    layer_offsets = np.zeros(paths.n_layers + 1, dtype=np.int64)
-    counts = np.bincount(paths.ring_layer()[idx], minlength=paths.n_layers)
-    np.cumsum(counts, out=layer_offsets[1:])
-    return LayerPaths._trusted(paths.coords[items], ring_offsets, layer_offsets)
+    coords, ring_offsets = take_rings(paths.coords, paths.ring_offsets, keep)
+    return LayerPaths._trusted(coords, ring_offsets, _kept_layer_offsets(paths, keep))
 
 
 def _with_rings(
     paths: LayerPaths, coords: NDArray[np.int64], ring_offsets: NDArray[np.int64]
 ) -> LayerPaths:
-    """Same layers, one new ring per old ring; empty rings dropped."""
-    out = LayerPaths._trusted(coords, ring_offsets, paths.layer_offsets.copy())
-    return _keep_rings(out, np.diff(ring_offsets) > 0)
+    """Same layers, one new ring per old ring; empty rings dropped.
+
+    Empty rings have no vertices, so only the offsets change.
+    """
+    keep = ring_offsets[1:] > ring_offsets[:-1]
+    kept_offsets = np.concatenate([ring_offsets[:1], ring_offsets[1:][keep]])
+    return LayerPaths._trusted(coords, kept_offsets, _kept_layer_offsets(paths, keep))
 
 
 def _kept_loops(

@@ -4,13 +4,11 @@ from __future__ import annotations
 
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._kernels.crossings import crossing_points, face_segments, range_offsets
-from vecslice._kernels.loops import link_segments
-from vecslice._kernels.rings import group_rings
-from vecslice._kernels.topology import edge_topology
+from vecslice._kernels.contours import trace_contours, vertex_layers
 from vecslice._validate import (
     as_int_array,
     check_bool,
@@ -34,7 +32,7 @@ def _layer_of_vertices(
     A vertex is above plane ``k`` iff ``k < vert_layer[v]``, so an element whose
     vertices have layers ``l`` meets planes ``min(l) <= k < max(l)``.
     """
-    return np.searchsorted(z, vertices[:, 2], side="left").astype(np.int64)
+    return vertex_layers(vertices, z)
 
 
 def _check_mesh(
@@ -103,33 +101,23 @@ def slice_contours(
     >>> [len(loops.layer(k)) for k in range(2)], loops.layer_area2().tolist()
     ([1, 1], [200000000, 200000000])
     """
-    vertices, faces = _check_mesh(mesh, stitch)
+    _check_mesh(mesh, stitch)
     z = _check_slice_z(slice_z)
     limit = check_int(max_layers, "max_layers", minimum=1,
                       what="an integer number of layers")
     check_layer_count(z.shape[0], limit, f"{z.shape[0]} heights in `slice_z`",
                       "slice_contours(..., max_layers={n})")
-    return _contours(vertices, faces, z, stitch, None)
+    return _contours(mesh, z, stitch)
 
 
-def _mesh_topology(mesh: Any) -> tuple[NDArray[np.int64], ...]:
-    """The edge topology :func:`slice_contours` builds, for reuse across calls.
+def _contours(mesh: Any, z: NDArray[np.int64], stitch: bool) -> LayerPaths:
+    """:func:`slice_contours` on checked input.
 
-    Pass it to ``_contours`` (as ``vecslice.sweep`` does) to slice one mesh at
-    several schedules while building its topology once.
+    The mesh's half-edge twins are built on its first slice and cached on it, so
+    every later slice of the same mesh (other heights, ``vecslice.sweep``) reuses
+    them.
     """
-    vertices, faces = _check_mesh(mesh, False)
-    return tuple(edge_topology(faces, vertices.shape[0]))
-
-
-def _contours(
-    vertices: NDArray[np.int64],
-    faces: NDArray[np.int64],
-    z: NDArray[np.int64],
-    stitch: bool,
-    topology: tuple[NDArray[np.int64], ...] | None,
-) -> LayerPaths:
-    """:func:`slice_contours` on checked input, with an optional prebuilt topology."""
+    vertices, faces = mesh.vertices, mesh.faces
     order = np.argsort(z, kind="stable")
     is_sorted = bool(np.all(order == np.arange(z.shape[0])))
     zs = z if is_sorted else z[order]
@@ -139,47 +127,17 @@ def _contours(
         return LayerPaths(empty.coords, empty.ring_offsets, empty.layer_offsets,
                           open=LayerPaths.empty(n_layers))
 
-    if topology is None:
-        topology = tuple(edge_topology(faces, vertices.shape[0]))
-    face_edges, edge_vertices, twin = topology
+    # sorted plane k is input height order[k]: it becomes output layer order[k]
+    out_layer = order.astype(np.int64)
+    twin = mesh._half_edge_twins()
     vert_layer = _layer_of_vertices(vertices, zs)
-    edge_offsets = range_offsets(vert_layer, edge_vertices)
-    points = crossing_points(vertices, edge_vertices, vert_layer, edge_offsets, zs)
-    edge_base = edge_offsets[:-1] - np.minimum(
-        vert_layer[edge_vertices[:, 0]], vert_layer[edge_vertices[:, 1]]
+    coords, ring_offsets, layer_offsets, o_coords, o_rings, o_layers = (
+        trace_contours(vertices, faces, twin, vert_layer, zs, out_layer,
+                       4 * numba.get_num_threads())
     )
-    face_offsets = range_offsets(vert_layer, faces)
-    seg_from, seg_to, seg_layer, nxt, has_prev = face_segments(
-        faces, face_edges, vert_layer, edge_base, face_offsets, twin
-    )
-    cv, cr, cl, ov, orr, ol = link_segments(nxt, has_prev, seg_from, seg_to, seg_layer)
-    if is_sorted:
-        rank = np.arange(n_layers, dtype=np.int64)
-    else:
-        rank = np.empty_like(order)
-        rank[order] = np.arange(n_layers, dtype=np.int64)
-    closed = _group_by_layer(points, cv, cr, cl, rank)
-    open_chains = _group_by_layer(points, ov, orr, ol, rank)
-    loops = LayerPaths._trusted(
-        closed.coords, closed.ring_offsets, closed.layer_offsets, open_chains
-    )
+    open_chains = LayerPaths._trusted(o_coords, o_rings, o_layers)
+    loops = LayerPaths._trusted(coords, ring_offsets, layer_offsets, open_chains)
     if stitch and open_chains.n_rings:
         loops = stitch_chains(loops).loops
     return loops
 
-
-def _group_by_layer(
-    points: NDArray[np.int64],
-    verts: NDArray[np.int64],
-    ring_offsets: NDArray[np.int64],
-    ring_layer: NDArray[np.int64],
-    rank: NDArray[np.int64],
-) -> LayerPaths:
-    """Group rings by output layer: sorted plane ``rank[i]`` becomes layer ``i``."""
-    n_layers = rank.shape[0]
-    out_layer = np.empty_like(rank)
-    out_layer[rank] = np.arange(n_layers, dtype=np.int64)
-    coords, new_ring_offsets, layer_offsets = group_rings(
-        points, verts, ring_offsets, out_layer[ring_layer], n_layers
-    )
-    return LayerPaths._trusted(coords, new_ring_offsets, layer_offsets)

@@ -189,10 +189,9 @@ def _scales(scale: Any, items: list[tuple[str, Any]]) -> dict[str, float]:
 
 @dataclass(frozen=True)
 class _Prepared:
-    """A loaded mesh with its edge topology, or why it could not be loaded."""
+    """A loaded mesh (half-edge twins cached on it), or why it failed to load."""
 
     mesh: Any
-    topology: tuple[Any, ...] | None
     error: str
     seconds: float
 
@@ -204,16 +203,15 @@ def _describe(exc: BaseException) -> str:
 def _prepare(source: Any, scale: float) -> _Prepared:
     """Load ``source`` (path or Mesh) and build its topology, once per mesh."""
     from vecslice.mesh import load_mesh
-    from vecslice.slicing import _mesh_topology
 
     t = time.perf_counter()
     try:
         mesh = source if not isinstance(source, (str, os.PathLike)) else load_mesh(
             source, scale=scale)
-        topology = _mesh_topology(mesh)
+        mesh._half_edge_twins()  # built once here, cached on the mesh
     except Exception as exc:  # a bad mesh gives error rows, the sweep goes on
-        return _Prepared(None, None, _describe(exc), time.perf_counter() - t)
-    return _Prepared(mesh, topology, "", time.perf_counter() - t)
+        return _Prepared(None, _describe(exc), time.perf_counter() - t)
+    return _Prepared(mesh, "", time.perf_counter() - t)
 
 
 def _variant(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
@@ -271,8 +269,7 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
             check_layer_count(len(schedule[0]), limit, "layers in the schedule",
                               "SliceSettings(max_layers={n})")
         if not cura:
-            raw = _contours(mesh.vertices, mesh.faces, schedule[0], False,
-                            prep.topology)
+            raw = _contours(mesh, schedule[0], False)
             raw, stitched = stitch(raw)
     except Exception as exc:
         return [_row(mesh_index, name, i, s, None, _describe(exc)) for i, s in combos]

@@ -3,7 +3,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import reference
-from vecslice._kernels.rings import group_rings, ring_area2
+from vecslice._kernels.rings import group_rings, ring_area2, take_rings
 
 coord = st.integers(-(2**30) + 1, 2**30 - 1)
 
@@ -49,3 +49,14 @@ def test_group_rings_is_a_stable_grouping(case, n_keys, rnd):
     got = [out[ro[i]:ro[i + 1]].tolist() for i in range(n)]
     assert got == expect
     assert np.diff(ko).tolist() == np.bincount(keys, minlength=n_keys).tolist()
+
+
+@given(st.lists(st.integers(0, 5), min_size=0, max_size=30), st.randoms())
+def test_take_rings_keeps_the_chosen_rings_in_order(lengths, rnd):
+    offsets = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+    coords = np.arange(2 * offsets[-1], dtype=np.int64).reshape(-1, 2)
+    keep = np.array([rnd.random() < 0.5 for _ in lengths], dtype=np.bool_)
+    got_c, got_o = take_rings(coords, offsets, keep)
+    rings = [coords[offsets[i]:offsets[i + 1]] for i in range(len(lengths)) if keep[i]]
+    assert got_o.tolist() == [0, *np.cumsum([len(r) for r in rings]).tolist()]
+    assert got_c.tolist() == (np.concatenate(rings).tolist() if rings else [])

@@ -4,7 +4,11 @@ import trimesh
 from hypothesis import given
 from hypothesis import strategies as st
 
-from vecslice._kernels.topology import edge_face_counts, edge_topology
+from vecslice._kernels.topology import (
+    edge_face_counts,
+    edge_topology,
+    half_edge_twins,
+)
 
 
 def _reference(faces):
@@ -62,3 +66,21 @@ def test_closed_mesh_edges_have_two_faces(mesh):
     assert (counts == 2).all()
     assert (twin >= 0).all() and (twin[twin] == np.arange(len(twin))).all()
     assert len(ev) == len(mesh.edges_unique)  # Euler: E = 3F/2
+
+
+@given(st.lists(st.tuples(*[st.integers(0, 12)] * 3), min_size=1, max_size=80))
+def test_half_edge_twins_equal_edge_topology_twins(tris):
+    # few vertices: many shared, non-manifold and inconsistently wound edges
+    faces = np.array([t for t in tris if len(set(t)) == 3] or [(0, 1, 2)], np.int64)
+    _, _, twin = edge_topology(faces, 13)
+    assert half_edge_twins(faces, 13).tolist() == twin.tolist()
+
+
+def test_half_edge_twins_on_large_fans():
+    # 2000 faces around vertex 0, plus every edge doubled (non-manifold) on one side
+    n = 2000
+    fan = [[0, i, i + 1] for i in range(1, n + 1)]
+    back = [[0, i + 1, i] for i in range(1, n + 1, 2)]
+    faces = np.array(fan + back + back[:7], dtype=np.int64)
+    _, _, twin = edge_topology(faces, n + 2)
+    assert half_edge_twins(faces, n + 2).tolist() == twin.tolist()

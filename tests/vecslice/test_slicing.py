@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+import trimesh
 from hypothesis import assume, given
 
 import reference
@@ -201,3 +202,56 @@ def test_bad_input(mesh_arg, z, error, fragment):
     with pytest.raises(error, match=fragment) as info:
         vs.slice_contours(mesh, z)
     assert isinstance(info.value, (ValueError, TypeError))
+
+
+def test_topology_is_built_once_per_mesh(monkeypatch):
+    from concurrent.futures import ThreadPoolExecutor
+
+    from vecslice._kernels import topology
+
+    calls = []
+    build = topology.half_edge_twins
+
+    def counted(faces, n_vertices):
+        calls.append(len(faces))
+        return build(faces, n_vertices)
+
+    monkeypatch.setattr(topology, "half_edge_twins", counted)
+    mesh = vs.load_mesh(trimesh.creation.icosphere(subdivisions=2, radius=10))
+    first = vs.slice_contours(mesh, [-5000, 0, 5000])
+    again = vs.slice_contours(mesh, [-5000, 0, 5000])
+    vs.slice_contours(mesh, [-2500, 2500])
+    vs.slice_mesh(mesh)
+    assert calls == [mesh.n_faces]
+    assert first.coords.tolist() == again.coords.tolist()
+    # same faces: a translated copy shares the topology; a new mesh builds its own
+    moved = mesh.translated(1000, 0, 0)
+    assert (vs.slice_contours(moved, [0]).coords
+            == first.layer(1)[0] + [1000, 0]).all()
+    assert len(calls) == 1
+    fresh = vs.Mesh.from_arrays(mesh.vertices, mesh.faces)
+    vs.slice_contours(fresh, [0])
+    assert len(calls) == 2
+    # threads slicing one new mesh at once: built at most once per thread, and
+    # every result is the one a single thread gets
+    shared = vs.Mesh.from_arrays(mesh.vertices, mesh.faces)
+    with ThreadPoolExecutor(4) as pool:
+        outs = list(pool.map(lambda _: vs.slice_contours(shared, [-5000, 0, 5000]),
+                             range(8)))
+    assert 3 <= len(calls) <= 6
+    assert all(o.coords.tolist() == first.coords.tolist() for o in outs)
+    assert all(o.ring_offsets.tolist() == first.ring_offsets.tolist() for o in outs)
+
+
+def test_pickled_mesh_leaves_its_topology_behind_and_slices_the_same():
+    import pickle
+
+    mesh = vs.load_mesh(trimesh.creation.icosphere(subdivisions=2, radius=10))
+    first = vs.slice_contours(mesh, [-5000, 0, 5000])
+    payload = pickle.dumps(mesh)
+    assert len(payload) < mesh.vertices.nbytes + mesh.faces.nbytes + 2000
+    copy = pickle.loads(payload)
+    assert not copy.vertices.flags.writeable and not copy.faces.flags.writeable
+    again = vs.slice_contours(copy, [-5000, 0, 5000])
+    assert again.coords.tolist() == first.coords.tolist()
+    assert again.ring_offsets.tolist() == first.ring_offsets.tolist()

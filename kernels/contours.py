@@ -1,0 +1,407 @@
+"""One kernel from faces to loops: crossings, segments, linking and grouping fused.
+
+:func:`trace_contours` gives what the step kernels give chained
+(:func:`.crossings.crossing_points`, :func:`.crossings.face_segments`,
+:func:`.loops.link_segments`, :func:`.rings.group_rings`), without their
+per-crossing and per-segment arrays: it walks each loop from face to twin face,
+computes each crossing point when the loop reaches it (every crossing is the start
+of exactly one segment, so each point is computed once) and writes it straight to
+its place in the output. Scratch: a byte per segment and per output vertex, and
+two numbers per face.
+"""
+
+import numpy as np
+from numba import prange, types
+
+from ._jit import kernel
+from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+from .crossings import DOWN_EDGE, UP_EDGE
+
+_OUT = types.Tuple(
+    (I64_2D_OUT, I64_1D_OUT, I64_1D_OUT, I64_2D_OUT, I64_1D_OUT, I64_1D_OUT)
+)
+
+
+@kernel(inline="always")
+def _code(l0, l1, l2, k):
+    """Above-code of a face at plane k: bit j set when vertex j is above it."""
+    return (1 if k < l0 else 0) + (2 if k < l1 else 0) + (4 if k < l2 else 0)
+
+
+@kernel(inline="always")
+def _point(vertices, p, q, zk):
+    """Crossing of edge p-q with plane zk, from its lower end (as crossing_points).
+
+    Branch-free: which end is lower and the rounding direction are data, not
+    jumps (both are unpredictable along a loop).
+    """
+    zp = vertices[p, 2]
+    zq = vertices[q, 2]
+    swap = zp > zq
+    a = q if swap else p
+    b = p if swap else q
+    xa = vertices[a, 0]
+    ya = vertices[a, 1]
+    za = zq if swap else zp
+    dz = (zp if swap else zq) - za
+    t = zk - za
+    nx = (vertices[b, 0] - xa) * t
+    ny = (vertices[b, 1] - ya) * t
+    qx = nx // dz
+    qy = ny // dz
+    rx = 2 * (nx - qx * dz)
+    ry = 2 * (ny - qy * dz)
+    qx += np.int64((rx > dz) | ((rx == dz) & (nx >= 0)))
+    qy += np.int64((ry > dz) | ((ry == dz) & (ny >= 0)))
+    return xa + qx, ya + qy
+
+
+@kernel(inline="always")
+def _paired(in_seg, in_pair, out_face, s):
+    """Face of the segment joined to open end ``s`` (-1: the chain ends there)."""
+    i = np.searchsorted(in_seg, s)
+    j = in_pair[i]
+    return -1 if j < 0 else out_face[j]
+
+
+_U8_W = types.uint8[::1]
+_I32_W = types.int32[::1]
+_I64_W = types.int64[::1]
+
+
+@kernel(
+    types.void(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, _I32_W, _I64_W,
+               _I64_W, _I64_W, _I64_W, _I64_W, _I64_W, _U8_W, types.int64[:, ::1],
+               _U8_W, _I64_W, _U8_W),
+    parallel=True,
+)
+def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
+                  face_offsets, layer_start, bounds, in_seg, in_pair, out_face,
+                  out_visited, out_coords, out_ring_start, out_rings_of,
+                  out_broken):
+    """Trace the closed loops of planes ``bounds[c]:bounds[c + 1]``, chunks in parallel.
+
+    Faces are scanned in order and a loop is traced from every segment not yet
+    visited, writing its points at its plane's cursor (which starts at
+    ``layer_start[out_layer[k]]``) and flagging its first point in
+    ``out_ring_start``.
+    """
+    n_faces = faces.shape[0]
+    down_of = np.array(DOWN_EDGE, dtype=np.int64)
+    up_of = np.array(UP_EDGE, dtype=np.int64)
+    n_chunks = bounds.shape[0] - 1
+    for c in prange(n_chunks):
+        k0 = bounds[c]
+        k1 = bounds[c + 1]
+        if k1 <= k0:
+            continue
+        cursor = np.empty(k1 - k0, dtype=np.int64)
+        for k in range(k0, k1):
+            cursor[k - k0] = layer_start[out_layer[k]]
+        for f0 in range(n_faces):
+            lo0 = np.int64(face_lo[f0])
+            hi0 = lo0 + face_offsets[f0 + 1] - face_offsets[f0]
+            for k in range(max(lo0, k0), min(hi0, k1)):
+                if out_visited[face_offsets[f0] + k - lo0]:
+                    continue
+                zk = z[k]
+                pos = cursor[k - k0]
+                out_ring_start[pos] = 1
+                out_rings_of[k] += 1
+                f = f0
+                while True:
+                    p0 = faces[f, 0]
+                    p1 = faces[f, 1]
+                    p2 = faces[f, 2]
+                    l0 = vert_layer[p0]
+                    l1 = vert_layer[p1]
+                    l2 = vert_layer[p2]
+                    s = face_offsets[f] + k - min(l0, min(l1, l2))
+                    if out_visited[s]:
+                        break
+                    out_visited[s] = 1
+                    code = _code(l0, l1, l2, k)
+                    jd = down_of[code]
+                    ju = up_of[code]
+                    # jd is unpredictable along a loop: select, don't branch
+                    pa = p0 if jd == 0 else (p1 if jd == 1 else p2)
+                    pb = p1 if jd == 0 else (p2 if jd == 1 else p0)
+                    x, y = _point(vertices, pa, pb, zk)
+                    out_coords[pos, 0] = x
+                    out_coords[pos, 1] = y
+                    pos += 1
+                    tw = twin[3 * f + ju]
+                    if tw >= 0:
+                        f = tw // 3
+                    else:
+                        f = _paired(in_seg, in_pair, out_face, s)
+                        if f < 0:  # cannot happen: only chains end
+                            out_broken[k] = 1
+                            break
+                cursor[k - k0] = pos
+
+
+@kernel(_OUT(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, I64))
+def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks):
+    """Closed loops and open chains of a mesh cut at every plane, grouped by layer.
+
+    Returns ``(coords, ring_offsets, layer_offsets, open_coords, open_ring_offsets,
+    open_layer_offsets)``: the closed loops, then the open chains, each grouped by
+    output layer ``out_layer[k]`` of plane ``k``. Equal to chaining
+    ``crossing_points``, ``face_segments``, ``link_segments`` and ``group_rings``:
+    a closed loop starts at its first segment (segments ordered by face, then
+    plane), loops of a layer come in that order, open chains start where no
+    segment ends and come in the order of their first segment. Ends on edges
+    without a twin are joined by crossing (edge and plane) as
+    :func:`.loops.pair_open_ends` joins them.
+
+    Closed loops are traced in parallel over chunks of planes: a loop lies in one
+    plane, and each plane's vertices have their own range of the output.
+
+    Preconditions: ``z`` sorted; ``vert_layer[v]`` the number of planes strictly
+    below vertex ``v``; ``twin`` from :func:`.topology.half_edge_twins`;
+    ``out_layer`` a permutation of ``range(len(z))``; |coordinates| < 2**30.
+    """
+    n_faces = faces.shape[0]
+    n_planes = z.shape[0]
+    n_vertices = vertices.shape[0]
+    down_of = np.array(DOWN_EDGE, dtype=np.int64)
+    up_of = np.array(UP_EDGE, dtype=np.int64)
+
+    # plane range of every face, segments per plane, open ends
+    face_lo = np.empty(n_faces, dtype=np.int32)
+    face_offsets = np.empty(n_faces + 1, dtype=np.int64)
+    per_plane = np.zeros(n_planes + 1, dtype=np.int64)
+    face_offsets[0] = 0
+    n_in = 0
+    n_out = 0
+    for f in range(n_faces):
+        l0 = vert_layer[faces[f, 0]]
+        l1 = vert_layer[faces[f, 1]]
+        l2 = vert_layer[faces[f, 2]]
+        lo = min(l0, min(l1, l2))
+        hi = max(l0, max(l1, l2))
+        face_lo[f] = lo
+        face_offsets[f + 1] = face_offsets[f] + hi - lo
+        if hi > lo:
+            per_plane[lo] += 1
+            per_plane[hi] -= 1
+            if twin[3 * f] < 0 or twin[3 * f + 1] < 0 or twin[3 * f + 2] < 0:
+                for k in range(lo, hi):
+                    code = _code(l0, l1, l2, k)
+                    if twin[3 * f + up_of[code]] < 0:
+                        n_in += 1
+                    if twin[3 * f + down_of[code]] < 0:
+                        n_out += 1
+    for k in range(n_planes):
+        per_plane[k + 1] += per_plane[k]
+    n_seg = face_offsets[n_faces]
+    visited = np.zeros(n_seg, dtype=np.uint8)
+
+    # open ends, in segment order, keyed by their crossing (edge, plane)
+    in_seg = np.empty(n_in, dtype=np.int64)
+    in_key = np.empty(n_in, dtype=np.int64)
+    in_k = np.empty(n_in, dtype=np.int64)
+    out_seg = np.empty(n_out, dtype=np.int64)
+    out_face = np.empty(n_out, dtype=np.int64)
+    out_key = np.empty(n_out, dtype=np.int64)
+    out_k = np.empty(n_out, dtype=np.int64)
+    if n_in + n_out > 0:
+        i = 0
+        o = 0
+        for f in range(n_faces):
+            if not (twin[3 * f] < 0 or twin[3 * f + 1] < 0 or twin[3 * f + 2] < 0):
+                continue
+            l0 = vert_layer[faces[f, 0]]
+            l1 = vert_layer[faces[f, 1]]
+            l2 = vert_layer[faces[f, 2]]
+            lo = face_lo[f]
+            for k in range(lo, lo + face_offsets[f + 1] - face_offsets[f]):
+                code = _code(l0, l1, l2, k)
+                ju = up_of[code]
+                jd = down_of[code]
+                if twin[3 * f + ju] < 0:
+                    p = faces[f, ju]
+                    q = faces[f, (ju + 1) % 3]
+                    in_seg[i] = face_offsets[f] + k - lo
+                    in_key[i] = min(p, q) * n_vertices + max(p, q)
+                    in_k[i] = k
+                    i += 1
+                if twin[3 * f + jd] < 0:
+                    p = faces[f, jd]
+                    q = faces[f, (jd + 1) % 3]
+                    out_seg[o] = face_offsets[f] + k - lo
+                    out_face[o] = f
+                    out_key[o] = min(p, q) * n_vertices + max(p, q)
+                    out_k[o] = k
+                    o += 1
+    # the k-th end at a crossing (by segment) joins the k-th start there
+    in_pair = np.full(n_in, -1, dtype=np.int64)
+    out_has_prev = np.zeros(n_out, dtype=np.bool_)
+    if n_in > 0 and n_out > 0:
+        o1 = np.argsort(in_k, kind="mergesort")
+        order_in = o1[np.argsort(in_key[o1], kind="mergesort")]
+        o2 = np.argsort(out_k, kind="mergesort")
+        order_out = o2[np.argsort(out_key[o2], kind="mergesort")]
+        i = 0
+        o = 0
+        while i < n_in and o < n_out:
+            a = order_in[i]
+            b = order_out[o]
+            ka = in_key[a]
+            kb = out_key[b]
+            if ka < kb or (ka == kb and in_k[a] < out_k[b]):
+                i += 1
+            elif ka > kb or in_k[a] > out_k[b]:
+                o += 1
+            else:
+                in_pair[a] = b
+                out_has_prev[b] = True
+                i += 1
+                o += 1
+
+    # open chains (serial; few): sizes first, then the points
+    n_chains = 0
+    for b in range(n_out):
+        if not out_has_prev[b]:
+            n_chains += 1
+    chain_start = np.empty(n_chains, dtype=np.int64)
+    chain_len = np.empty(n_chains, dtype=np.int64)
+    chain_segs = np.zeros(n_planes, dtype=np.int64)
+    open_rings = np.zeros(n_planes + 1, dtype=np.int64)
+    c = 0
+    for b in range(n_out):
+        if out_has_prev[b]:
+            continue
+        chain_start[c] = b
+        k = out_k[b]
+        f = out_face[b]
+        n = 0
+        while f >= 0:
+            l0 = vert_layer[faces[f, 0]]
+            l1 = vert_layer[faces[f, 1]]
+            l2 = vert_layer[faces[f, 2]]
+            s = face_offsets[f] + k - min(l0, min(l1, l2))
+            visited[s] = 1
+            n += 1
+            tw = twin[3 * f + up_of[_code(l0, l1, l2, k)]]
+            f = tw // 3 if tw >= 0 else _paired(in_seg, in_pair, out_face, s)
+        chain_len[c] = n + 1
+        chain_segs[k] += n
+        open_rings[out_layer[k] + 1] += 1
+        c += 1
+    for k in range(n_planes):
+        open_rings[k + 1] += open_rings[k]
+    open_fill = open_rings[:-1].copy()
+    chain_slot = np.empty(n_chains, dtype=np.int64)
+    for c in range(n_chains):
+        lay = out_layer[out_k[chain_start[c]]]
+        chain_slot[open_fill[lay]] = c
+        open_fill[lay] += 1
+    open_offsets = np.zeros(n_chains + 1, dtype=np.int64)
+    for r in range(n_chains):
+        open_offsets[r + 1] = open_offsets[r] + chain_len[chain_slot[r]]
+    open_coords = np.empty((open_offsets[n_chains], 2), dtype=np.int64)
+    for r in range(n_chains):
+        b = chain_start[chain_slot[r]]
+        k = out_k[b]
+        zk = z[k]
+        f = out_face[b]
+        pos = open_offsets[r]
+        while True:
+            l0 = vert_layer[faces[f, 0]]
+            l1 = vert_layer[faces[f, 1]]
+            l2 = vert_layer[faces[f, 2]]
+            code = _code(l0, l1, l2, k)
+            jd = down_of[code]
+            x, y = _point(vertices, faces[f, jd], faces[f, (jd + 1) % 3], zk)
+            open_coords[pos, 0] = x
+            open_coords[pos, 1] = y
+            pos += 1
+            ju = up_of[code]
+            tw = twin[3 * f + ju]
+            if tw >= 0:
+                f = tw // 3
+                continue
+            s = face_offsets[f] + k - min(l0, min(l1, l2))
+            g = _paired(in_seg, in_pair, out_face, s)
+            if g < 0:
+                x, y = _point(vertices, faces[f, ju], faces[f, (ju + 1) % 3], zk)
+                open_coords[pos, 0] = x
+                open_coords[pos, 1] = y
+                break
+            f = g
+
+    # closed loops: every other segment starts one vertex; each plane's vertices
+    # go to its output layer's range, in the order the loops are found
+    layer_start = np.zeros(n_planes + 1, dtype=np.int64)
+    for k in range(n_planes):
+        layer_start[out_layer[k] + 1] = per_plane[k] - chain_segs[k]
+    for k in range(n_planes):
+        layer_start[k + 1] += layer_start[k]
+    n_closed = layer_start[n_planes]
+    coords = np.empty((n_closed, 2), dtype=np.int64)
+    ring_start = np.zeros(n_closed, dtype=np.uint8)
+    rings_of = np.zeros(n_planes, dtype=np.int64)
+    broken = np.zeros(n_planes, dtype=np.uint8)
+    # chunks of consecutive planes with about equal numbers of segments
+    n_chunks = max(1, min(n_planes, n_chunks))
+    bounds = np.empty(n_chunks + 1, dtype=np.int64)
+    bounds[0] = 0
+    k = 0
+    below = 0  # segments on planes < k
+    for c in range(1, n_chunks):
+        target = (n_seg * c) // n_chunks
+        while k < n_planes and below < target:
+            below += per_plane[k]
+            k += 1
+        bounds[c] = max(k, bounds[c - 1])
+    bounds[n_chunks] = n_planes
+    _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
+                  face_offsets, layer_start, bounds, in_seg, in_pair, out_face,
+                  visited, coords, ring_start, rings_of, broken)
+    for k in range(n_planes):
+        if broken[k]:
+            raise RuntimeError("trace_contours: a loop without a successor")
+
+    n_rings = 0
+    for k in range(n_planes):
+        n_rings += rings_of[k]
+    ring_offsets = np.empty(n_rings + 1, dtype=np.int64)
+    r = 0
+    for i in range(n_closed):
+        if ring_start[i]:
+            ring_offsets[r] = i
+            r += 1
+    ring_offsets[n_rings] = n_closed
+    layer_offsets = np.zeros(n_planes + 1, dtype=np.int64)
+    for k in range(n_planes):
+        layer_offsets[out_layer[k] + 1] = rings_of[k]
+    for k in range(n_planes):
+        layer_offsets[k + 1] += layer_offsets[k]
+    return (coords, ring_offsets, layer_offsets, open_coords, open_offsets,
+            open_rings)
+
+
+@kernel(I64_1D_OUT(I64_2D, I64_1D), parallel=True)
+def vertex_layers(vertices, z):
+    """Number of planes strictly below each vertex: ``searchsorted(z, vz, "left")``.
+
+    A vertex is above plane ``k`` iff ``k < vert_layer[v]`` (on the plane counts as
+    below). Binary search per vertex, in parallel. Precondition: ``z`` sorted.
+    """
+    n = vertices.shape[0]
+    n_planes = z.shape[0]
+    out = np.empty(n, dtype=np.int64)
+    for v in prange(n):
+        vz = vertices[v, 2]
+        lo = 0
+        hi = n_planes
+        while lo < hi:
+            mid = (lo + hi) >> 1
+            if z[mid] < vz:
+                lo = mid + 1
+            else:
+                hi = mid
+        out[v] = lo
+    return out

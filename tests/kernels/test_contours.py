@@ -1,0 +1,70 @@
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+
+from strategies import closed_meshes
+from vecslice._kernels.contours import trace_contours, vertex_layers
+from vecslice._kernels.crossings import crossing_points, face_segments, range_offsets
+from vecslice._kernels.loops import link_segments
+from vecslice._kernels.rings import group_rings
+from vecslice._kernels.topology import edge_topology, half_edge_twins
+
+
+def chained(v, f, z, out_layer):
+    """The step kernels chained, as slice_contours did before trace_contours."""
+    fe, ev, twin = edge_topology(f, len(v))
+    vl = np.searchsorted(z, v[:, 2], side="left").astype(np.int64)
+    eo = range_offsets(vl, ev)
+    pts = crossing_points(v, ev, vl, eo, z)
+    eb = eo[:-1] - np.minimum(vl[ev[:, 0]], vl[ev[:, 1]])
+    fo = range_offsets(vl, f)
+    sf, st_, sl, nxt, has_prev = face_segments(f, fe, vl, eb, fo, twin)
+    cv, cr, cl, ov, orr, ol = link_segments(nxt, has_prev, sf, st_, sl)
+    closed = group_rings(pts, cv, cr, out_layer[cl], len(z))
+    chains = group_rings(pts, ov, orr, out_layer[ol], len(z))
+    return closed + chains
+
+
+def traced(v, f, z, out_layer, n_chunks):
+    vl = np.searchsorted(z, v[:, 2], side="left").astype(np.int64)
+    return trace_contours(v, f, half_edge_twins(f, len(v)), vl, z, out_layer,
+                          n_chunks)
+
+
+def break_mesh(f, rng):
+    """Flip, delete and duplicate some faces (open, non-manifold, flipped edges)."""
+    f = f.copy()
+    flip = rng.random(len(f)) < 0.1
+    f[flip] = f[flip][:, ::-1]
+    keep = rng.random(len(f)) > 0.1
+    dup = rng.random(len(f)) < 0.05
+    return np.concatenate([f[keep], f[dup]])
+
+
+@given(closed_meshes(), st.integers(0, 2**32 - 1), st.booleans(),
+       st.integers(1, 9))
+def test_trace_contours_equals_the_chained_kernels(case, seed, broken, n_chunks):
+    v, f, planes = case
+    rng = np.random.default_rng(seed)
+    if broken:
+        f = break_mesh(f, rng)
+        if len(f) == 0:
+            return
+    z = np.sort(np.asarray(planes, dtype=np.int64))
+    out_layer = rng.permutation(len(z)).astype(np.int64)
+    got = traced(v, f, z, out_layer, n_chunks)
+    ref = chained(v, f, z, out_layer)
+    for a, b in zip(got, ref, strict=True):
+        assert a.tolist() == b.tolist()
+
+
+@given(st.lists(st.integers(-(2**30) + 1, 2**30 - 1), min_size=1, max_size=50),
+       st.lists(st.integers(-(2**30) + 1, 2**30 - 1), min_size=0, max_size=12))
+def test_vertex_layers_is_searchsorted_left(vz, planes):
+    v = np.zeros((len(vz), 3), dtype=np.int64)
+    v[:, 2] = vz
+    z = np.sort(np.array(planes, dtype=np.int64))
+    # exact vertex heights among the planes too
+    z = np.sort(np.concatenate([z, v[: len(vz) // 2, 2]]))
+    expect = np.searchsorted(z, v[:, 2], side="left")
+    assert vertex_layers(v, z).tolist() == expect.tolist()

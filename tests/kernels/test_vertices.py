@@ -1,0 +1,54 @@
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+
+import reference_mesh
+from vecslice._kernels.vertices import clean_mesh, merge_vertices
+
+coord = st.integers(-(2**30) + 1, 2**30 - 1)
+
+
+@st.composite
+def meshes_with_duplicates(draw):
+    """Few distinct positions (so many repeat), faces over all vertex records."""
+    pool = draw(st.lists(st.tuples(coord, coord, coord), min_size=1, max_size=8))
+    n = draw(st.integers(1, 40))
+    pick = draw(st.lists(st.integers(0, len(pool) - 1), min_size=n, max_size=n))
+    v = np.array([pool[i] for i in pick], dtype=np.int64).reshape(-1, 3)
+    n_f = draw(st.integers(1, 30))
+    f = draw(st.lists(st.tuples(*[st.integers(0, n - 1)] * 3), min_size=n_f,
+                      max_size=n_f))
+    return v, np.array(f, dtype=np.int64).reshape(-1, 3)
+
+
+@given(meshes_with_duplicates(), st.booleans())
+def test_clean_mesh_matches_the_sorting_merge(case, merge):
+    v, f = case
+    got = clean_mesh(v, f, merge)
+    ref = reference_mesh.clean_arrays(v, f, merge=merge)
+    assert got[0].tolist() == ref[0].tolist()
+    assert got[1].tolist() == ref[1].tolist()
+    assert list(got[2:]) == list(ref[2:])
+
+
+@given(st.lists(st.tuples(*[st.integers(-3, 3)] * 3), min_size=1, max_size=200))
+def test_merge_vertices_groups_equal_positions_in_first_occurrence_order(pts):
+    v = np.array(pts, dtype=np.int64)
+    group, first = merge_vertices(v)
+    seen = {}
+    for i, p in enumerate(pts):
+        seen.setdefault(p, len(seen))
+        assert group[i] == seen[p]
+    assert first.tolist() == [pts.index(p) for p in seen]
+
+
+def test_merge_survives_colliding_slots():
+    # many positions, a table at its fullest (n a power of two): probing wraps
+    rng = np.random.default_rng(1)
+    v = rng.integers(-5, 5, size=(4096, 3)).astype(np.int64)
+    group, first = merge_vertices(v)
+    _, ref_first, ref_inv = np.unique(v, axis=0, return_index=True,
+                                      return_inverse=True)
+    assert sorted(first.tolist()) == sorted(ref_first.tolist())
+    assert (first[group] == ref_first[ref_inv.reshape(-1)]).all()
+    assert (v[first[group]] == v).all()
