@@ -203,6 +203,19 @@ def test_thousands_of_ends_within_one_gap_match_quadratic_kernel():
     assert (n > 1000).all()
 
 
+def test_coincident_ends_need_no_candidate_list():
+    # issue 8 A3: 100,000 one-vertex chains at one point form 10**10 candidate
+    # pairs; the old kernel listed them all (MemoryError after minutes). Smallest
+    # key first, chain i's end meets chain i's own start: every chain closes.
+    n = 100_000
+    coords = np.zeros((n, 2), dtype=np.int64)
+    ro = np.arange(n + 1, dtype=np.int64)
+    lo = np.array([0, n], dtype=np.int64)
+    cc, cr, cl, oc, orr, ol, cnt = stitch_chains(coords, ro, lo, 20, 10_000)
+    assert (cc == 0).all() and cr.tolist() == list(range(n + 1))
+    assert cl.tolist() == [0, n] and len(oc) == 0 and cnt.tolist() == [n]
+
+
 @given(random_layers(), gaps)
 def test_nothing_lost(layers, g):
     for chains, (loops, still_open, n) in zip(layers, _run(layers, *g), strict=True):
