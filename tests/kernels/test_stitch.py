@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 import reference_stitch_quadratic
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import reference_stitch
@@ -188,6 +188,15 @@ def test_crowded_layers_match_quadratic_kernel(seed, span, g):
     rng = np.random.default_rng(seed)
     layers = [_crowd(rng, int(rng.integers(0, 300)), span) for _ in range(3)]
     _same_as_quadratic(*_pack(layers), *g)
+
+
+@settings(max_examples=40)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([1, 3, 30, 3000]), gaps)
+def test_crowded_layers_match_both_references(seed, span, g):
+    # up to 50 chains (100 ends) within one gap: both references, ties included
+    rng = np.random.default_rng(seed)
+    layers = [_crowd(rng, int(rng.integers(0, 50)), span) for _ in range(2)]
+    _run(layers, *g)
 
 
 def test_thousands_of_ends_within_one_gap_match_quadratic_kernel():
