@@ -4,8 +4,10 @@ Triangle meshes in, per-layer int64-micron polygons out, following CuraEngine's
 design (layer schedules, simplification, layer parts) but working on whole arrays.
 """
 
+from vecslice.adaptive import adaptive_layer_heights
 from vecslice.demo import demo_mesh
 from vecslice.errors import (
+    InputIndexError,
     InputTypeError,
     InputValueError,
     LayoutError,
@@ -32,6 +34,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "COORD_LIMIT",
+    "InputIndexError",
     "InputTypeError",
     "InputValueError",
     "LayerPaths",
@@ -50,6 +53,7 @@ __all__ = [
     "VecsliceError",
     "VecsliceWarning",
     "__version__",
+    "adaptive_layer_heights",
     "check_mesh",
     "clean_loops",
     "demo_mesh",
