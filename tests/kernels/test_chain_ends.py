@@ -1,3 +1,4 @@
+import numba
 import numpy as np
 import pytest
 from hypothesis import given
@@ -5,6 +6,10 @@ from hypothesis import strategies as st
 
 import reference_stitch
 from vecslice._kernels.chain_ends import match_ends
+
+# the large inputs take minutes when kernels run as plain Python (coverage runs)
+needs_jit = pytest.mark.skipif(numba.config.DISABLE_JIT,
+                               reason="NUMBA_DISABLE_JIT=1: too slow as plain Python")
 
 
 def _arrays(ends):
@@ -94,6 +99,7 @@ def test_ties_lower_gid_then_in_order_first():
     assert _match(ends, 100, True) == {frozenset((0, 2))}
 
 
+@needs_jit
 @pytest.mark.parametrize("n", [200_000])
 def test_many_coincident_ends_are_fast_and_greedy(n):
     # every terminus at one point (4 * 10**10 candidate pairs for a full list):

@@ -1,12 +1,18 @@
 """CuraEngine's chain joining (kernels/cura_stitch.py, kernels/cura_polylines.py)."""
 
+import numba
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import reference_cura as ref
 from vecslice._kernels.cura_polylines import stitch_open_polylines
 from vecslice._kernels.cura_stitch import connect_open_polylines
+
+# the large inputs take minutes when kernels run as plain Python (coverage runs)
+needs_jit = pytest.mark.skipif(numba.config.DISABLE_JIT,
+                               reason="NUMBA_DISABLE_JIT=1: too slow as plain Python")
 
 ROUNDS = np.array([[20, 20, 0], [10_000, 10_000, 1]], dtype=np.int64)
 
@@ -173,6 +179,7 @@ def test_crowded_ends_match_reference_and_quadratic_kernel(seed, span):
         assert _unpack(oc, orr, ol)[k] == [p for p in polylines if p]
 
 
+@needs_jit
 def test_thousands_of_ends_within_one_gap_match_quadratic_kernel():
     # 1,200 random segments in a 5 mm square (2,400 ends, 2.9 M possible
     # stitches within 10 mm), and 600 on a 3 x 3 lattice
@@ -187,6 +194,7 @@ def test_thousands_of_ends_within_one_gap_match_quadratic_kernel():
     assert n.tolist()[0] > 1_000
 
 
+@needs_jit
 def test_coincident_ends_need_no_candidate_list():
     # 100,000 one-vertex chains at one point: 10**10 possible stitches, all of
     # which the old kernel listed (MemoryError). Smallest (gap², t0, t1) first:

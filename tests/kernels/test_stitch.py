@@ -1,3 +1,4 @@
+import numba
 import numpy as np
 import pytest
 import reference_stitch_quadratic
@@ -6,6 +7,10 @@ from hypothesis import strategies as st
 
 import reference_stitch
 from vecslice._kernels.stitch import stitch_chains
+
+# the large inputs take minutes when kernels run as plain Python (coverage runs)
+needs_jit = pytest.mark.skipif(numba.config.DISABLE_JIT,
+                               reason="NUMBA_DISABLE_JIT=1: too slow as plain Python")
 
 
 def _pack(layers):
@@ -180,6 +185,7 @@ def _crowd(rng, n, span, max_len=4, spread=None):
     return chains
 
 
+@needs_jit
 @given(st.integers(0, 2**32 - 1), st.sampled_from([1, 3, 30, 1000, 8000]), gaps)
 def test_crowded_layers_match_quadratic_kernel(seed, span, g):
     # hundreds of chain ends within one gap (ties galore on the small boxes):
@@ -199,6 +205,7 @@ def test_crowded_layers_match_both_references(seed, span, g):
     _run(layers, *g)
 
 
+@needs_jit
 def test_thousands_of_ends_within_one_gap_match_quadratic_kernel():
     # 3,000 chains (6,000 ends, 18 M candidate pairs within 10 mm) in a 2 mm box,
     # on a coarse lattice so that equal gaps and coincident ends abound
@@ -212,6 +219,7 @@ def test_thousands_of_ends_within_one_gap_match_quadratic_kernel():
     assert (n > 1000).all()
 
 
+@needs_jit
 def test_coincident_ends_need_no_candidate_list():
     # issue 8 A3: 100,000 one-vertex chains at one point form 10**10 candidate
     # pairs; the old kernel listed them all (MemoryError after minutes). Smallest

@@ -1,3 +1,4 @@
+import numba
 import numpy as np
 import pytest
 import reference_stitch_quadratic
@@ -10,6 +11,10 @@ import vecslice as vs
 from vecslice.errors import InputTypeError, SettingsError
 from vecslice.paths import LayerPaths
 from vecslice.stitch import Stitched, stitch
+
+# the large inputs take minutes when kernels run as plain Python (coverage runs)
+needs_jit = pytest.mark.skipif(numba.config.DISABLE_JIT,
+                               reason="NUMBA_DISABLE_JIT=1: too slow as plain Python")
 
 
 def _layer_paths(layers, open=None):
@@ -169,6 +174,7 @@ def _same_layer(got, want):
         assert len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b))
 
 
+@needs_jit
 def test_triangle_soup_matches_quadratic_kernel():
     raw = _soup_raw(2_000)
     assert raw.open.rings_per_layer().max() > 100
@@ -178,6 +184,7 @@ def test_triangle_soup_matches_quadratic_kernel():
         _same_layer((loops.layer(k), loops.open.layer(k), int(counts[k])), want[k])
 
 
+@needs_jit
 def test_20k_triangle_soup_is_stitched_as_the_quadratic_kernel_does():
     # issue 8 A3: this took minutes (thousands of chain ends within the 10 mm gap,
     # all pairs listed). Layers are stitched independently, so the quadratic
