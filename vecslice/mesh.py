@@ -1,23 +1,20 @@
 """Triangle meshes in int64 µm: :class:`Mesh` and :func:`load_mesh`.
 
-This is the only vecslice module that imports trimesh. Files are read by trimesh
-without processing (``process=False``); vecslice converts the vertices to µm once,
-then does its own exact merging, cleaning and orientation repair on integers.
+Files are read by :mod:`vecslice.meshfile` to float vertices and faces; vecslice
+converts the vertices to µm once, then does its own exact merging, cleaning and
+orientation repair on integers. trimesh is imported only where a trimesh object
+is made (:meth:`Mesh.to_trimesh`) or read.
 """
 
 from __future__ import annotations
 
 import numbers
 import os
-import struct
-import zipfile
-import zlib
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import trimesh
 from numpy.typing import ArrayLike, NDArray
 
 from vecslice._validate import as_int_array, check_coord_range, check_int
@@ -33,30 +30,13 @@ from vecslice.meshcheck import (
     orient_faces,
     shells,
 )
+from vecslice.meshfile import read_mesh_file, trimesh_arrays
 from vecslice.units import to_microns
 
+if TYPE_CHECKING:
+    import trimesh
+
 __all__ = ["LoadInfo", "Mesh", "MeshReport", "check_mesh", "load_mesh"]
-
-SUPPORTED_EXTENSIONS = ("3mf", "obj", "off", "ply", "stl")
-"""File types :func:`load_mesh` reads (case-insensitive suffixes)."""
-
-# What trimesh's readers raise on damaged input (found by truncating and corrupting
-# STL/OBJ/PLY/3MF files): parse errors are ValueError (UnicodeDecodeError is one),
-# lxml's XMLSyntaxError is a SyntaxError, a 3MF without a model raises StopIteration.
-_READ_ERRORS: tuple[type[BaseException], ...] = (
-    ValueError,
-    KeyError,
-    IndexError,
-    StopIteration,
-    SyntaxError,
-    EOFError,
-    NotImplementedError,
-    OSError,
-    struct.error,
-    zipfile.BadZipFile,
-    zlib.error,
-)
-
 
 def _freeze(a: NDArray[np.int64]) -> NDArray[np.int64]:
     a.flags.writeable = False
@@ -354,6 +334,8 @@ class Mesh:
 
     def to_trimesh(self) -> trimesh.Trimesh:
         """A ``trimesh.Trimesh`` in float64 millimetres (not processed)."""
+        import trimesh
+
         return trimesh.Trimesh(vertices=self.vertices / 1000.0,
                                faces=self.faces.copy(), process=False)
 
@@ -427,84 +409,6 @@ def _check_scale(scale: object) -> float:
     return s
 
 
-def _stl_hint(path: Path, size: int) -> str:
-    """Why an STL file gave no triangles, guessed from its first bytes."""
-    with open(path, "rb") as fh:
-        head = np.frombuffer(fh.read(512), dtype=np.uint8)
-    if (((head >= 32) & (head < 127)) | np.isin(head, (9, 10, 13))).all():
-        return " (ASCII STL without a complete 'solid ... endsolid' block: truncated?)"
-    if size < 84:
-        return f" (binary STL needs an 84-byte header; the file has {size} bytes)"
-    n = int(head[80:84].view("<u4")[0])
-    want = 84 + 50 * n
-    return (f" (binary STL header announces {n} triangles = {want} bytes; the file "
-            f"has {size} bytes: truncated or corrupt)")
-
-
-def _scene_arrays(scene: trimesh.Scene) -> tuple[NDArray[np.float64], NDArray[Any]]:
-    """Vertices and faces of every Trimesh instance of ``scene``, transforms applied."""
-    verts: list[NDArray[np.float64]] = []
-    faces: list[NDArray[Any]] = []
-    base = 0
-    for node in scene.graph.nodes_geometry:  # one per placed instance, not per face
-        transform, name = scene.graph[node]
-        geom = scene.geometry.get(name)
-        if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
-            continue
-        v = np.asarray(geom.vertices, dtype=np.float64)
-        t = np.asarray(transform, dtype=np.float64)
-        v = v @ t[:3, :3].T + t[:3, 3]
-        f = np.asarray(geom.faces, dtype=np.int64)
-        if np.linalg.det(t[:3, :3]) < 0:  # a mirror turns the winding inside out
-            f = f[:, ::-1]
-        verts.append(v)
-        faces.append(f + base)
-        base += v.shape[0]
-    if not faces:
-        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
-    return np.concatenate(verts), np.concatenate(faces)
-
-
-def _read_file(path: Path) -> tuple[NDArray[np.float64], NDArray[Any]]:
-    if not path.exists():
-        raise MeshFileError(f"mesh file not found: '{path}'")
-    if path.is_dir():
-        raise MeshFileError(f"'{path}' is a directory, not a mesh file")
-    ext = path.suffix.lower().lstrip(".")
-    if ext not in SUPPORTED_EXTENSIONS:
-        raise MeshFileError(
-            f"'{path}': unsupported mesh file type '{path.suffix}'; expected one of "
-            + ", ".join("." + e for e in SUPPORTED_EXTENSIONS)
-        )
-    size = path.stat().st_size
-    if size == 0:
-        raise MeshFileError(f"'{path}' is empty (0 bytes)")
-    try:
-        loaded = trimesh.load(str(path), file_type=ext, process=False)
-    except _READ_ERRORS as exc:
-        raise MeshFileError(
-            f"cannot read '{path}' as {ext.upper()}: {type(exc).__name__}: {exc}"
-        ) from exc
-    if isinstance(loaded, trimesh.Scene):
-        v, f = _scene_arrays(loaded)
-    elif isinstance(loaded, trimesh.Trimesh):
-        v, f = np.asarray(loaded.vertices), np.asarray(loaded.faces)
-    else:
-        v, f = np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
-    if f.shape[0] == 0:
-        hint = _stl_hint(path, size) if ext == "stl" else ""
-        raise MeshFileError(f"'{path}' holds no triangles{hint}")
-    flat = f.reshape(-1)
-    bad = np.flatnonzero((flat < 0) | (flat >= v.shape[0]))
-    if bad.size:
-        i = int(bad[0])
-        raise MeshFileError(
-            f"'{path}' is corrupt: face {i // 3} refers to vertex {flat[i]}, but "
-            f"the file has {v.shape[0]} vertices"
-        )
-    return v, f
-
-
 def load_mesh(
     path_or_trimesh: str | os.PathLike[str] | trimesh.Trimesh | trimesh.Scene,
     *,
@@ -554,14 +458,9 @@ def load_mesh(
     if isinstance(path_or_trimesh, (str, os.PathLike)):
         path = Path(path_or_trimesh)
         source = str(path)
-        v, f = _read_file(path)
-    elif isinstance(path_or_trimesh, trimesh.Trimesh):
-        source = "trimesh.Trimesh"
-        v = np.asarray(path_or_trimesh.vertices, dtype=np.float64)
-        f = np.asarray(path_or_trimesh.faces)
-    elif isinstance(path_or_trimesh, trimesh.Scene):
-        source = "trimesh.Scene"
-        v, f = _scene_arrays(path_or_trimesh)
+        v, f = read_mesh_file(path)
+    elif (arrays := trimesh_arrays(path_or_trimesh)) is not None:
+        v, f, source = arrays
     else:
         raise InputTypeError(
             "`path_or_trimesh` must be a file path, trimesh.Trimesh or "
