@@ -20,6 +20,7 @@ __all__ = [
     "as_coords",
     "as_int_array",
     "as_offsets",
+    "check_bool",
     "check_int",
     "check_option",
 ]
@@ -128,6 +129,18 @@ def check_int(
     if maximum is not None and v > maximum:
         raise SettingsError(f"`{name}` must be <= {maximum}; got {v}")
     return v
+
+
+def check_bool(value: object, name: str) -> bool:
+    """Return ``value`` as a bool if it is one (``np.bool_`` too); raise otherwise.
+
+    Truthiness is not enough: ``repair="no"`` must not mean yes.
+    """
+    if not isinstance(value, (bool, np.bool_)):
+        raise InputTypeError(
+            f"`{name}` must be True or False; got {_describe(value)}"
+        )
+    return bool(value)
 
 
 def check_option(value: object, options: Sequence[str], name: str) -> str:

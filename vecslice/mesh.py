@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._validate import as_int_array, check_coord_range, check_int
+from vecslice._validate import as_int_array, check_bool, check_coord_range, check_int
 from vecslice.errors import InputTypeError, InputValueError, MeshFileError
 from vecslice.meshcheck import (
     LoadInfo,
@@ -31,7 +31,7 @@ from vecslice.meshcheck import (
     shells,
 )
 from vecslice.meshfile import read_mesh_file, trimesh_arrays
-from vecslice.units import to_microns
+from vecslice.units import COORD_LIMIT, to_microns
 
 if TYPE_CHECKING:
     import trimesh
@@ -160,7 +160,7 @@ class Mesh:
         merge : bool, default True
             Merge vertices with exactly equal positions (first occurrence kept,
             order kept), then drop faces with two equal corners and vertices no
-            face uses. ``False`` stores the arrays as given.
+            face uses. ``False`` stores the arrays as given. Must be a bool.
         load_info : LoadInfo, optional
             Counts from an earlier stage to add to (used by :func:`load_mesh`).
 
@@ -171,7 +171,8 @@ class Mesh:
         Raises
         ------
         InputTypeError
-            If an array is not integer (float vertices get a hint).
+            If an array is not integer (float vertices get a hint), or ``merge``
+            is not a bool.
         InputValueError
             On a wrong shape, a coordinate beyond 2**30 µm, a face index out of
             range, no faces, or only degenerate faces.
@@ -189,6 +190,7 @@ class Mesh:
         >>> m.faces.tolist(), m.load_info.vertices_merged, m.load_info.faces_degenerate
         ([[0, 1, 2], [0, 1, 2]], 1, 1)
         """
+        check_bool(merge, "merge")
         v = _as_vertices(vertices_um)
         f = _as_faces(faces, v.shape[0])
         base = load_info if load_info is not None else LoadInfo(
@@ -409,6 +411,31 @@ def _check_scale(scale: object) -> float:
     return s
 
 
+def _check_coords(v: NDArray[np.float64], s: float, source: str) -> NDArray[np.float64]:
+    """``v * s`` in mm after checking finiteness and the 2**30 µm range per vertex."""
+    bad = np.flatnonzero(~np.isfinite(v).all(axis=1))
+    if bad.size:
+        i = int(bad[0])
+        raise InputValueError(
+            f"`vertices` must be finite; got {[float(x) for x in v[i]]} at vertex "
+            f"{i} of {source}"
+        )
+    with np.errstate(over="ignore"):
+        mm = v * s if s != 1.0 else v
+        # |round half away from zero| = trunc(|x| + 0.5), as in to_microns
+        big = np.flatnonzero((np.trunc(np.abs(mm) * 1000.0 + 0.5) >= COORD_LIMIT)
+                             .any(axis=1))
+    if big.size:
+        i = int(big[0])
+        at = ", ".join(f"{float(x):g}" for x in v[i])
+        scaled = f" x scale {s:g}" if s != 1.0 else ""
+        raise InputValueError(
+            f"`vertices` must be below {COORD_LIMIT / 1000:g} mm in magnitude "
+            f"(2**30 µm); got ({at}){scaled} mm at vertex {i} of {source}"
+        )
+    return mm
+
+
 def load_mesh(
     path_or_trimesh: str | os.PathLike[str] | trimesh.Trimesh | trimesh.Scene,
     *,
@@ -421,13 +448,15 @@ def load_mesh(
     ----------
     path_or_trimesh : str, path-like, trimesh.Trimesh or trimesh.Scene
         An STL (binary or ASCII), OBJ, PLY, OFF or 3MF file, or a trimesh object.
-        3MF build items and components, and every scene node, are placed with
-        their transforms and concatenated.
+        Every 3MF build item and component placement, and every scene node, is
+        placed with its transform and concatenated.
     scale : float, default 1.0
-        File units to millimetres (25.4 for inches, 1000 for metres).
+        File units to millimetres (25.4 for inches, 1000 for metres). A 3MF
+        file's own ``unit`` is applied first, so leave it at 1 for 3MF.
     repair : bool, default True
-        Remove duplicate faces and orient every shell consistently and outward
-        (see :meth:`Mesh.repaired`).
+        Remove duplicate faces and orient every shell consistently: closed
+        shells outward, or inward where they are cavities inside another shell
+        (see :meth:`Mesh.repaired`). ``False`` keeps the file's windings.
 
     Returns
     -------
@@ -439,13 +468,25 @@ def load_mesh(
     Raises
     ------
     MeshFileError
-        (an ``OSError``) for a missing file, a directory, an unsupported suffix, an
-        empty, unreadable, truncated or corrupt file, or one without triangles.
+        (an ``OSError``) for a missing file, a symbolic link loop, a directory, an
+        unsupported suffix, an empty, unreadable, truncated, corrupt or
+        oversized file, one without triangles, or one whose faces all collapse
+        at ``scale``.
     InputTypeError
-        If ``path_or_trimesh`` or ``scale`` has the wrong type.
+        If ``path_or_trimesh``, ``scale``, or ``repair`` has the wrong type.
     InputValueError
         If ``scale`` is not positive and finite, a vertex is NaN or infinite, or a
         coordinate reaches 2**30 µm.
+
+    Notes
+    -----
+    Limits refuse hostile files before they cost memory: at most
+    :data:`vecslice.meshfile.MAX_TRIANGLES` triangles (100 million; also for
+    counts a header announces, and for 3MF after expanding components); for
+    3MF at most :data:`vecslice.threemf.MAX_MODEL_BYTES` (1 GiB) of model XML,
+    inflated no more than :data:`vecslice.threemf.MAX_COMPRESSION_RATIO` (200)
+    times, and at most :data:`vecslice.threemf.MAX_INSTANCES` (a million)
+    object placements.
 
     Examples
     --------
@@ -455,33 +496,31 @@ def load_mesh(
     ([[-5000, -10000, -15000], [5000, 10000, 15000]], 12, True)
     """
     s = _check_scale(scale)
+    check_bool(repair, "repair")
     if isinstance(path_or_trimesh, (str, os.PathLike)):
         path = Path(path_or_trimesh)
-        source = str(path)
+        source = f"'{path}'"
         v, f = read_mesh_file(path)
     elif (arrays := trimesh_arrays(path_or_trimesh)) is not None:
         v, f, source = arrays
+        if f.shape[0] == 0:
+            raise InputValueError(f"`path_or_trimesh` ({source}) holds no triangles")
     else:
         raise InputTypeError(
             "`path_or_trimesh` must be a file path, trimesh.Trimesh or "
             f"trimesh.Scene; got {type(path_or_trimesh).__name__}"
         )
-    if f.shape[0] == 0 and source.startswith("trimesh"):
-        raise InputValueError(f"`path_or_trimesh` ({source}) holds no triangles")
-    v = np.asarray(v, dtype=np.float64)
-    bad = np.flatnonzero(~np.isfinite(v).all(axis=1))
-    if bad.size:
-        i = int(bad[0])
-        raise InputValueError(
-            f"`vertices` must be finite; got {v[i].tolist()} at vertex {i} "
-            f"of {source}"
-        )
-    um = to_microns(v * s if s != 1.0 else v, name="vertices")
-    info = LoadInfo(source, int(f.shape[0]), int(v.shape[0]))
+    um = to_microns(_check_coords(np.asarray(v, dtype=np.float64), s, source),
+                    name="vertices")
+    info = LoadInfo(source.strip("'"), int(f.shape[0]), int(v.shape[0]))
     try:
         mesh = Mesh.from_arrays(um, f, load_info=info)
     except InputValueError as exc:
+        hint = ""
+        if "non-degenerate" in str(exc):
+            hint = (f" at scale {s:g} (file units to mm): is the scale right? "
+                    "(inches: 25.4, metres: 1000)")
         if source.startswith("trimesh"):
-            raise
-        raise MeshFileError(f"'{source}': {exc}") from exc
+            raise InputValueError(f"{exc}{hint}") from exc
+        raise MeshFileError(f"{source}: {exc}{hint}") from exc
     return mesh.repaired() if repair else mesh
