@@ -278,7 +278,7 @@ class Mesh:
         return Mesh._trusted(moved, self.faces, self.load_info)
 
     def repaired(self) -> Mesh:
-        """Remove duplicate faces and orient every shell consistently and outward.
+        """Remove duplicate faces; orient every shell consistently and the right way.
 
         1. **Duplicate faces**: faces with the same three vertices are grouped and
            their windings summed (+1 / -1). A non-zero sum keeps one face with the
@@ -288,13 +288,20 @@ class Mesh:
         2. **Winding**: faces joined across edges used by exactly two faces form a
            shell; each orientable shell is made consistent (neighbours traverse
            their shared edge in opposite directions).
-        3. **Outward**: a closed shell (its edge uses cancel) with negative signed
-           volume is reversed; an open shell keeps the orientation most of its
-           faces had. Non-orientable shells are left as they are.
+        3. **Facing**: a closed shell (its edge uses cancel) faces by its nesting
+           depth, the number of other closed shells it lies inside (exact ray
+           parity of its vertices; shells that cross each other are not nested):
+           outward (positive signed volume) at even depth, inward at odd depth.
+           So an inside-out part is turned outward, the void of a hollow part
+           stays a void (and is turned inward if the file had it outward), and a
+           body inside the void is solid again. An open shell keeps the
+           orientation most of its faces had. Non-orientable shells are left as
+           they are.
 
         Vertices no face uses any more are dropped. Non-manifold edges, holes and
         self-intersections are not changed (:func:`check_mesh` reports them). The
-        result's ``load_info`` counts removed and flipped faces.
+        result's ``load_info`` adds up removed and flipped faces and reversed
+        shells, and gives the number of cavities (inward closed shells).
 
         Returns
         -------
@@ -312,6 +319,9 @@ class Mesh:
         ...     [[0, 1, 2], [0, 3, 1], [1, 3, 2], [0, 2, 3]])
         >>> inside_out.volume, inside_out.repaired().volume
         (-36.0, 36.0)
+        >>> li = inside_out.repaired().load_info
+        >>> li.faces_flipped, li.shells_reversed, li.cavities_kept
+        (4, 1, 0)
         """
         f = self.faces
         keep = dedupe_faces(f)
@@ -321,8 +331,8 @@ class Mesh:
                 "`mesh` has no faces left after repair: every face cancels "
                 "against a reversed copy of itself"
             )
-        flip = orient_faces(self.vertices, f)
-        f = np.where(flip[:, None], f[:, [0, 2, 1]], f)
+        turn = orient_faces(self.vertices, f)
+        f = np.where(turn.flip[:, None], f[:, [0, 2, 1]], f)
         v, f, _, n_unused, _ = clean_arrays(self.vertices, f, merge=False)
         info = self.load_info if self.load_info is not None else LoadInfo(
             "arrays", self.n_faces, self.n_vertices)
@@ -330,7 +340,9 @@ class Mesh:
             info,
             vertices_unused=info.vertices_unused + n_unused,
             faces_duplicate=info.faces_duplicate + int((~keep).sum()),
-            faces_flipped=info.faces_flipped + int(flip.sum()),
+            faces_flipped=info.faces_flipped + int(turn.flip.sum()),
+            shells_reversed=info.shells_reversed + turn.shells_reversed,
+            cavities_kept=turn.cavities,
         )
         return Mesh._trusted(v, f, info)
 
