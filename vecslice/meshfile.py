@@ -25,7 +25,7 @@ import sys
 import threading
 import warnings
 from collections.abc import Callable, Iterator
-from itertools import chain
+from itertools import islice
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -251,14 +251,32 @@ def _floats(
 # OBJ
 # --------------------------------------------------------------------------
 
-_OBJ_V = re.compile(rb"^[ \t]*v[ \t]+([^\s#]+)[ \t]+([^\s#]+)[ \t]+([^\s#]+)", re.M)
+_OBJ_V = re.compile(rb"^[ \t]*v[ \t]+([^\s#]+[ \t]+[^\s#]+[ \t]+[^\s#]+)", re.M)
 _OBJ_V_LINE = re.compile(rb"^[ \t]*v[ \t]", re.M)
 _OBJ_F = re.compile(rb"^[ \t]*f[ \t]+([^\r\n#]*)", re.M)
 _OBJ_SLASH = re.compile(rb"/[^ \t\n]*")
+_INT = re.compile(rb"[+-]?\d{1,18}")
+
+
+def _numbers(text: bytes, dtype: type, n: int) -> NDArray[Any] | None:
+    """The whitespace-separated numbers of ``text``; None unless exactly ``n``."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)  # unparsed text
+        try:
+            a = np.fromstring(text, dtype=dtype, sep=" ")
+        except (ValueError, DeprecationWarning):
+            return None
+    return a if a.shape[0] == n else None
 
 
 def _line_of(data: bytes, offset: int) -> int:
     return data.count(b"\n", 0, offset) + 1
+
+
+def _obj_face(data: bytes, k: int) -> str:
+    """'face k+1 (line L)' for the k-th face line of an OBJ file."""
+    m = next(islice(_OBJ_F.finditer(data), k, None))
+    return f"face {k + 1} (line {_line_of(data, m.start())})"
 
 
 def _read_obj(path: Path, size: int) -> Arrays:
@@ -266,59 +284,60 @@ def _read_obj(path: Path, size: int) -> Arrays:
 
     Vertex indices are 1-based; negative ones count back from the last vertex
     defined before the face. Everything else (normals, texture coordinates,
-    groups, materials) is ignored.
+    groups, materials) is ignored. Whole-file regular expressions and numpy
+    parsing: no loop over lines in Python.
     """
     data = path.read_bytes()
     if b"\\\n" in data or b"\\\r\n" in data:  # line continuations
         data = data.replace(b"\\\r\n", b" ").replace(b"\\\n", b" ")
     rows = _OBJ_V.findall(data)
-    v_starts = [m.start() for m in _OBJ_V_LINE.finditer(data)]
-    if len(rows) != len(v_starts):
+    if len(rows) != len(_OBJ_V_LINE.findall(data)):
         good = {m.start() for m in _OBJ_V.finditer(data)}
-        at = next(s for s in v_starts if s not in good)
+        at = next(m.start() for m in _OBJ_V_LINE.finditer(data)
+                  if m.start() not in good)
         raise MeshFileError(
             f"'{path}' is corrupt: line {_line_of(data, at)} defines a vertex "
             "without three coordinates"
         )
-    v = _floats(path, rows, "vertex") if rows else np.empty((0, 3))
-    faces = [(m.start(), m.group(1)) for m in _OBJ_F.finditer(data)]
-    if not faces:
+    n_v = len(rows)
+    v = _numbers(b" ".join(rows), np.float64, 3 * n_v)
+    if v is None:  # slow path: names the bad number
+        v = _floats(path, [tuple(r.split()) for r in rows], "vertex")
+    v = v.reshape(-1, 3)
+    bodies = _OBJ_F.findall(data)
+    if not bodies:
         return v, np.empty((0, 3), dtype=np.int64)
-    if len(faces) > MAX_TRIANGLES:
-        raise _too_many(path, len(faces), "faces")
-    f_starts = np.array([s for s, _ in faces], dtype=np.int64)
-    body = b"\n".join(b for _, b in faces)
+    if len(bodies) > MAX_TRIANGLES:
+        raise _too_many(path, len(bodies), "faces")
+    body = b"\n".join(bodies)
     if b"/" in body:
         body = _OBJ_SLASH.sub(b"", body)
-    toks = [line.split() for line in body.split(b"\n")]
-    counts = np.fromiter(map(len, toks), dtype=np.int64, count=len(toks))
+    # tokens per face line: a token starts where a non-blank follows a blank
+    c = np.frombuffer(body, dtype=np.uint8)
+    blank = (c == 32) | (c == 9) | (c == 10) | (c == 13)
+    start = ~blank & np.concatenate([[True], blank[:-1]])
+    counts = np.bincount(np.cumsum(c == 10)[start], minlength=len(bodies))
     short = np.flatnonzero(counts < 3)
     if short.size:
         k = int(short[0])
+        raise MeshFileError(f"'{path}' is corrupt: {_obj_face(data, k)} has "
+                            f"{counts[k]} vertices; a face needs at least 3")
+    idx = _numbers(body, np.int64, int(counts.sum()))
+    face_of = np.repeat(np.arange(len(bodies)), counts)
+    if idx is None:
+        toks = body.split()
+        k = next(i for i, t in enumerate(toks) if not _INT.fullmatch(t))
         raise MeshFileError(
-            f"'{path}' is corrupt: face {k + 1} (line "
-            f"{_line_of(data, int(f_starts[k]))}) has {counts[k]} vertices; a face "
-            "needs at least 3"
-        )
-    flat = list(chain.from_iterable(toks))
-    face_of = np.repeat(np.arange(len(toks)), counts)
-    try:
-        idx = np.array(flat, dtype=np.bytes_).astype(np.int64)
-    except (ValueError, OverflowError):
-        k = next(i for i, t in enumerate(flat)
-                 if not re.fullmatch(rb"[+-]?\d{1,18}", t))
-        raise MeshFileError(
-            f"'{path}' is corrupt: face {face_of[k] + 1} (line "
-            f"{_line_of(data, int(f_starts[face_of[k]]))}) has vertex index "
-            f"{flat[k].decode('latin-1')!r}"
-        ) from None
+            f"'{path}' is corrupt: {_obj_face(data, int(face_of[k]))} has vertex "
+            f"index {toks[k].decode('latin-1')!r}; expected an integer")
     res = idx - 1
     neg = idx < 0
-    before = np.full(len(toks), len(rows), dtype=np.int64)
-    if neg.any():
-        before = np.searchsorted(np.array(v_starts, dtype=np.int64), f_starts)
+    if neg.any():  # relative: vertices defined before the face line
+        v_at = np.array([m.start() for m in _OBJ_V_LINE.finditer(data)], np.int64)
+        f_at = np.array([m.start() for m in _OBJ_F.finditer(data)], np.int64)
+        before = np.searchsorted(v_at, f_at)
         res[neg] = before[face_of[neg]] + idx[neg]
-    bad = np.flatnonzero((idx == 0) | (res < 0) | (res >= len(rows)))
+    bad = np.flatnonzero((idx == 0) | (res < 0) | (res >= n_v))
     if bad.size:
         k = int(bad[0])
         i, face = int(idx[k]), int(face_of[k])
@@ -327,15 +346,13 @@ def _read_obj(path: Path, size: int) -> Arrays:
         elif i < 0:
             why = f"only {before[face]} vertices are defined before it"
         else:
-            why = f"the file has {len(rows)} vertices"
-        raise MeshFileError(
-            f"'{path}' is corrupt: face {face + 1} (line "
-            f"{_line_of(data, int(f_starts[face]))}) refers to vertex {i}; {why}"
-        )
+            why = f"the file has {n_v} vertices"
+        raise MeshFileError(f"'{path}' is corrupt: {_obj_face(data, face)} refers "
+                            f"to vertex {i}; {why}")
     # fan: face with corners c0..c(k-1) -> (c0, cj, cj+1) for j = 1 .. k-2
-    first = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    first = np.cumsum(counts) - counts
     n_tri = counts - 2
-    tri_face = np.repeat(np.arange(len(toks)), n_tri)
+    tri_face = np.repeat(np.arange(len(bodies)), n_tri)
     j = np.arange(tri_face.shape[0]) - np.repeat(np.cumsum(n_tri) - n_tri, n_tri)
     base = first[tri_face]
     f = np.stack([res[base], res[base + j + 1], res[base + j + 2]], axis=1)

@@ -77,3 +77,39 @@ def test_damaged_meshes_slice(case):
     _check(mesh, planes)
     # the same soup with repair still slices
     _check(mesh.repaired(), planes)
+
+
+@st.composite
+def hollow_convex_parts(draw):
+    """A convex closed mesh with a shrunken copy inside it (a void), each shell
+    wound either way, randomly rotated and moved (int64 µm)."""
+    import trimesh
+
+    from strategies import _primitive
+
+    kind = draw(st.sampled_from(["box", "icosphere", "cylinder"]))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    m = _primitive(kind, rng)
+    m.apply_transform(trimesh.transformations.random_rotation_matrix(rng.random(3)))
+    v = np.rint((m.vertices + rng.uniform(-100, 100, 3)) * 1000).astype(np.int64)
+    f = np.asarray(m.faces, dtype=np.int64)
+    c = (v.min(axis=0) + v.max(axis=0)) // 2
+    inner = c + (v - c) // 3  # strictly inside: the shapes are convex, >= 1 mm
+    flip_outer, flip_inner = draw(st.booleans()), draw(st.booleans())
+    fo = f[:, ::-1] if flip_outer else f
+    fi = f if flip_inner else f[:, ::-1]  # as written, the void faces inward
+    return np.concatenate([v, inner]), np.concatenate([fo, fi + len(v)]), len(f)
+
+
+@settings(max_examples=40)
+@given(hollow_convex_parts())
+def test_repair_keeps_a_void_whatever_the_windings(case):
+    v, f, n_outer = case
+    mesh = vs.Mesh.from_arrays(v, f)
+    assert mesh.n_faces == 2 * n_outer  # nothing collapsed
+    r = mesh.repaired()
+    assert r.load_info.cavities_kept == 1
+    outer = vs.Mesh.from_arrays(r.vertices, r.faces[:n_outer])
+    void = vs.Mesh.from_arrays(r.vertices, r.faces[n_outer:])
+    assert outer.volume > 0 > void.volume
+    assert outer.is_watertight and void.is_watertight
