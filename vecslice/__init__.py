@@ -6,6 +6,7 @@ design (layer schedules, simplification, layer parts) but working on whole array
 
 from vecslice.demo import demo_mesh
 from vecslice.errors import (
+    InputIndexError,
     InputTypeError,
     InputValueError,
     LayoutError,
@@ -32,6 +33,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "COORD_LIMIT",
+    "InputIndexError",
     "InputTypeError",
     "InputValueError",
     "LayerPaths",

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vecslice._validate import check_int
+from vecslice._validate import check_int, check_layer_count
 from vecslice.errors import InputTypeError
 from vecslice.mesh import Mesh
 from vecslice.settings import SliceSettings
@@ -69,6 +69,11 @@ def layer_schedule(
     """
     n = layer_count(height, settings)
     init, th = settings.initial_layer_height, settings.layer_height
+    check_layer_count(
+        n, settings.max_layers,
+        f"an object {height} µm tall at layer_height {th} µm",
+        "SliceSettings(max_layers={n})",
+    )
     idx = np.arange(n, dtype=np.int64)
     mode = settings.slicing_tolerance
     if mode == "middle":

@@ -17,7 +17,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._validate import as_int_array, check_bool, check_coord_range, check_int
+from vecslice._validate import (
+    as_int_array,
+    check_bool,
+    check_coord_range,
+    check_int,
+    check_option,
+)
 from vecslice.errors import InputTypeError, InputValueError, MeshFileError
 from vecslice.meshcheck import (
     LoadInfo,
@@ -39,8 +45,10 @@ if TYPE_CHECKING:
 __all__ = ["LoadInfo", "Mesh", "MeshReport", "check_mesh", "load_mesh"]
 
 def _freeze(a: NDArray[np.int64]) -> NDArray[np.int64]:
-    a.flags.writeable = False
-    return a
+    """``a`` immutable (no copy): one rule for every container, see ragged.freeze."""
+    from vecslice.ragged import freeze
+
+    return freeze(a)
 
 
 def _as_vertices(value: ArrayLike) -> NDArray[np.int64]:
@@ -453,6 +461,7 @@ def load_mesh(
     *,
     scale: float = 1.0,
     repair: bool = True,
+    compat: str = "vecslice",
 ) -> Mesh:
     """Read a mesh file (or take a trimesh object) as an int64-µm :class:`Mesh`.
 
@@ -469,6 +478,13 @@ def load_mesh(
         Remove duplicate faces and orient every shell consistently: closed
         shells outward, or inward where they are cavities inside another shell
         (see :meth:`Mesh.repaired`). ``False`` keeps the file's windings.
+        Ignored with ``compat="cura"``.
+    compat : {'vecslice', 'cura'}, default 'vecslice'
+        ``'cura'`` reads the mesh as CuraEngine does (STL only, or a trimesh
+        object): float32 values, ``MM2INT``, 30 µm melding through CuraEngine's hash
+        cells in file order, degenerate triangles dropped and nothing repaired;
+        vertices and faces come in CuraEngine's order (see
+        :mod:`vecslice.cura_stl`). Slice it with ``SliceSettings(compat="cura")``.
 
     Returns
     -------
@@ -489,6 +505,8 @@ def load_mesh(
     InputValueError
         If ``scale`` is not positive and finite, a vertex is NaN or infinite, or a
         coordinate reaches 2**30 µm.
+    SettingsError
+        If ``compat`` is not 'vecslice' or 'cura'.
 
     Notes
     -----
@@ -506,9 +524,15 @@ def load_mesh(
     >>> box = load_mesh(trimesh.creation.box((10, 20, 30)))
     >>> box.bounds.tolist(), box.n_faces, box.is_watertight
     ([[-5000, -10000, -15000], [5000, 10000, 15000]], 12, True)
+    >>> load_mesh(trimesh.creation.box((10, 20, 30)), compat="cura").faces[:2].tolist()
+    [[0, 1, 2], [3, 0, 2]]
     """
     s = _check_scale(scale)
     check_bool(repair, "repair")
+    if check_option(compat, ("vecslice", "cura"), "compat") == "cura":
+        from vecslice.cura_stl import load_mesh_cura
+
+        return load_mesh_cura(path_or_trimesh, s)  # type: ignore[no-any-return]
     if isinstance(path_or_trimesh, (str, os.PathLike)):
         path = Path(path_or_trimesh)
         source = f"'{path}'"

@@ -6,12 +6,15 @@ from dataclasses import dataclass, fields
 from difflib import get_close_matches
 from typing import Literal
 
-from vecslice._validate import check_int, check_option
+from vecslice._validate import check_bool, check_int, check_option
 from vecslice.errors import InputTypeError
 
-__all__ = ["SLICING_TOLERANCES", "SliceSettings"]
+__all__ = ["COMPAT_MODES", "MAX_LAYERS", "SLICING_TOLERANCES", "SliceSettings"]
 
 SLICING_TOLERANCES = ("middle", "inclusive", "exclusive")
+COMPAT_MODES = ("vecslice", "cura")
+MAX_LAYERS = 100_000
+"""Default layer limit (``SliceSettings.max_layers``): 10 m of 0.1 mm layers."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -38,11 +41,28 @@ class SliceSettings:
     union_overlapping_volumes : bool, default True
         Union the loops of a layer with the NonZero rule (overlapping bodies merge);
         ``False`` uses EvenOdd.
+    compat : {'vecslice', 'cura'}, default 'vecslice'
+        ``'cura'`` builds the polygons as CuraEngine does, with all its rounding
+        (``spec/CURA_COMPAT.md``): two crossings per face from the face's own
+        vertex order with CuraEngine's biased ``interpolate``, its case table and
+        on-plane rules, loops started at the lowest unused segment with the
+        near-duplicate closing point kept into simplification, its chaining,
+        stitching, circumference filter and open-polyline stitcher. Use it with a
+        mesh loaded with ``load_mesh(path, compat="cura")`` to get the polygons
+        CuraEngine hands to its union; the union itself stays manifold3d's. The
+        default ``'vecslice'`` computes one crossing per mesh edge, rounded once,
+        so loops are watertight by construction.
+    max_layers : int, default 100000 (``vecslice.settings.MAX_LAYERS``)
+        Largest number of layers a slice may have, ``>= 1``. More layers raise a
+        :class:`SettingsError` before any work, naming the count: memory and time
+        grow with the layer count (100,000 layers are 10 m at 0.1 mm). Raise it
+        to slice taller objects or thinner layers.
 
     Raises
     ------
     SettingsError
-        A height is not positive, a threshold is negative or the tolerance is unknown.
+        A height is not positive, a threshold is negative, the tolerance is unknown
+        or ``max_layers`` is not positive.
     """
 
     layer_height: int = 100
@@ -53,6 +73,8 @@ class SliceSettings:
     max_area_deviation: int = 50000
     minimum_polygon_circumference: int = 1000
     union_overlapping_volumes: bool = True
+    compat: Literal["vecslice", "cura"] = "vecslice"
+    max_layers: int = MAX_LAYERS
 
     def __init__(
         self,
@@ -65,6 +87,8 @@ class SliceSettings:
         max_area_deviation: int = 50000,
         minimum_polygon_circumference: int = 1000,
         union_overlapping_volumes: bool = True,
+        compat: Literal["vecslice", "cura"] = "vecslice",
+        max_layers: int = MAX_LAYERS,
         **unknown: object,
     ) -> None:
         if unknown:
@@ -94,12 +118,12 @@ class SliceSettings:
                       maximum=2**62)
         object.__setattr__(self, "max_area_deviation", v)
         check_option(self.slicing_tolerance, SLICING_TOLERANCES, "slicing_tolerance")
-        if not isinstance(self.union_overlapping_volumes, bool):
-            raise InputTypeError(
-                "`union_overlapping_volumes` must be a bool; got "
-                f"{type(self.union_overlapping_volumes).__name__} "
-                f"{self.union_overlapping_volumes!r}"
-            )
+        check_option(self.compat, COMPAT_MODES, "compat")
+        v = check_bool(self.union_overlapping_volumes, "union_overlapping_volumes")
+        object.__setattr__(self, "union_overlapping_volumes", v)
+        n = check_int(self.max_layers, "max_layers", minimum=1,
+                      what="an integer number of layers")
+        object.__setattr__(self, "max_layers", n)
 
     def replace(self, **changes: object) -> SliceSettings:
         """A copy with some settings changed (validated like the constructor)."""
