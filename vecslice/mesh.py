@@ -534,7 +534,11 @@ def load_mesh(
 
         return load_mesh_cura(path_or_trimesh, s)  # type: ignore[no-any-return]
     if isinstance(path_or_trimesh, (str, os.PathLike)):
-        path = Path(path_or_trimesh)
+        try:
+            path = Path(path_or_trimesh)
+        except TypeError as exc:  # a PathLike giving bytes
+            raise InputTypeError(
+                f"`path_or_trimesh` must be a file path (str); got {exc}") from None
         source = f"'{path}'"
         v, f = read_mesh_file(path)
     elif (arrays := trimesh_arrays(path_or_trimesh)) is not None:

@@ -68,6 +68,8 @@ def _check_path(path: Path) -> int:
                 f"'{os.readlink(path)}' does not exist"
             ) from None
         raise MeshFileError(f"mesh file not found: '{path}'") from None
+    except ValueError as exc:  # an embedded NUL byte
+        raise MeshFileError(f"cannot open {str(path)!r}: {exc}") from None
     except OSError as exc:
         if exc.errno == errno.ELOOP:
             raise MeshFileError(
@@ -178,8 +180,8 @@ def _too_many(path: Path, n: int, what: str = "triangles") -> MeshFileError:
 _STL_RECORD = np.dtype(
     [("normal", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")]
 )
-_STL_VERTEX = re.compile(rb"vertex[ \t\r\n]+(\S+)[ \t\r\n]+(\S+)[ \t\r\n]+(\S+)", re.I)
-_STL_LOOP = re.compile(rb"outer[ \t]+loop", re.I)
+_STL_VERTEX = re.compile(rb"vertex[ \t\r\n]+(\S+)[ \t\r\n]+(\S+)[ \t\r\n]+(\S+)")
+_STL_LOOP = re.compile(rb"outer[ \t]+loop")
 _TEXT = re.compile(rb"[^\t\n\r\x20-\x7e]")
 
 
@@ -200,7 +202,7 @@ def _read_stl(path: Path, size: int) -> Arrays:
     with open(path, "rb") as fh:
         head = fh.read(84)
         n = struct.unpack_from("<I", head, 80)[0] if len(head) == 84 else -1
-        if size == 84 + 50 * n:
+        if n >= 0 and size == 84 + 50 * n:
             if n > MAX_TRIANGLES:
                 raise _too_many(path, n)
             rec = np.frombuffer(fh.read(), dtype=_STL_RECORD, count=n)
@@ -214,7 +216,8 @@ def _read_stl(path: Path, size: int) -> Arrays:
 
 
 def _read_stl_ascii(path: Path, data: bytes) -> Arrays:
-    body = data[data.find(b"\n") + 1:] if b"\n" in data else b""  # skip the name
+    # keywords in any case (some CAD writes SOLID ... ENDSOLID); skip the name
+    body = data[data.find(b"\n") + 1:].lower() if b"\n" in data else b""
     tokens = _STL_VERTEX.findall(body)
     n_loops = len(_STL_LOOP.findall(body))
     if not tokens or body.rfind(b"endsolid") < body.rfind(b"vertex"):

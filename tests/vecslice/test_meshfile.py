@@ -191,9 +191,24 @@ def test_binary_stl_starting_with_solid(tmp_path):
     assert m.n_faces == 3 and m.zrange == (0, 2000)
 
 
+def test_odd_paths_and_tiny_files(tmp_path):
+    refused(str(tmp_path / "a\0b.stl"), r"cannot open .*embedded null")
+
+    class BytesPath:
+        def __fspath__(self):
+            return b"x.stl"
+
+    with pytest.raises(vs.InputTypeError, match=r"`path_or_trimesh` must be a file "
+                       r"path \(str\)"):
+        vs.load_mesh(BytesPath())
+    # 34 bytes = 84 + 50 * -1: no header to read, not a binary STL
+    refused(write(tmp_path, "t.stl", b"\x01" * 34), r"t\.stl' holds no triangles "
+            r"\(binary STL needs an 84-byte header; the file has 34 bytes\)")
+
+
 def test_ascii_stl_multi_solid_and_upper_case(tmp_path):
     one = TRI_STL % (b"a", b"a")
-    two = (TRI_STL % (b"b", b"b")).replace(b"vertex 0 0 0", b"VERTEX 0 0 5")
+    two = (TRI_STL % (b"b", b"b")).upper().replace(b"VERTEX 0 0 0", b"VERTEX 0 0 5")
     m = vs.load_mesh(write(tmp_path, "two.stl", one + two), repair=False)
     assert m.n_faces == 2 and m.zrange == (0, 5000)
 
