@@ -137,8 +137,7 @@ class _Package:
         events = etree.iterparse(
             io.BytesIO(data), events=("end",), tag=tags,
             resolve_entities=False, no_network=True, huge_tree=False,
-            load_dtd=False, dtd_validation=False, attribute_defaults=False,
-            remove_comments=True, remove_pis=True, collect_ids=False)
+            load_dtd=False, dtd_validation=False, attribute_defaults=False)
         try:
             for _, el in events:
                 yield el
@@ -267,7 +266,8 @@ def _parse_part(pkg: _Package, name: str, *, root: bool) -> None:
                 where = f"build item {len(pkg.items) + 1}"
                 pkg.items.append((_ref(pkg, item, part, where),
                                   _transform(pkg, item.get("transform"), where)))
-        el.clear()
+        # drop the objects read before this one (memory stays near one object);
+        # the last one goes with the document, which frees faster than clear()
         while el.getprevious() is not None:
             del el.getparent()[0]
     if not seen_root and pkg.last_root is not None:
