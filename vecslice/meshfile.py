@@ -261,7 +261,7 @@ _OBJ_SLASH = re.compile(rb"/[^ \t\n]*")
 _INT = re.compile(rb"[+-]?\d{1,18}")
 
 
-def _numbers(text: bytes, dtype: type, n: int) -> NDArray[Any] | None:
+def _numbers(text: bytes | str, dtype: type, n: int) -> NDArray[Any] | None:
     """The whitespace-separated numbers of ``text``; None unless exactly ``n``."""
     with warnings.catch_warnings():
         warnings.simplefilter("error", DeprecationWarning)  # unparsed text

@@ -20,7 +20,6 @@ is applied: vertices come out in millimetres.
 from __future__ import annotations
 
 import io
-import warnings
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice.errors import MeshFileError
-from vecslice.meshfile import MAX_TRIANGLES
+from vecslice.meshfile import MAX_TRIANGLES, _numbers
 
 if TYPE_CHECKING:
     from lxml import etree
@@ -204,17 +203,6 @@ def _transform(pkg: _Package, text: str | None, where: str) -> NDArray[np.float6
     return t
 
 
-def _numbers(text_rows: list[str], dtype: type, n: int) -> NDArray[Any] | None:
-    """Parse space-joined numbers; None unless exactly ``n`` values parse."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", DeprecationWarning)  # unparsed text
-        try:
-            a = np.fromstring(" ".join(text_rows), dtype=dtype, sep=" ")
-        except (ValueError, DeprecationWarning):
-            return None
-    return a if a.shape[0] == n else None
-
-
 def _mesh(pkg: _Package, mesh: etree._Element, where: str) -> _Object:
     # iterate each list's own children: mesh.iter() would walk both lists twice
     vs, ts = mesh.find("{*}vertices"), mesh.find("{*}triangles")
@@ -222,14 +210,14 @@ def _mesh(pkg: _Package, mesh: etree._Element, where: str) -> _Object:
         f"{e.get('x')} {e.get('y')} {e.get('z')}" for e in vs.iter("{*}vertex")]
     tris = [] if ts is None else [
         f"{e.get('v1')} {e.get('v2')} {e.get('v3')}" for e in ts.iter("{*}triangle")]
-    v = _numbers(verts, np.float64, 3 * len(verts))
-    f = _numbers(tris, np.int64, 3 * len(tris))
+    v = _numbers(" ".join(verts), np.float64, 3 * len(verts))
+    f = _numbers(" ".join(tris), np.int64, 3 * len(tris))
     if v is None:
-        k = next(i for i, s in enumerate(verts) if _numbers([s], np.float64, 3) is None)
+        k = next(i for i, s in enumerate(verts) if _numbers(s, np.float64, 3) is None)
         raise pkg.fail(f"{where}: vertex {k} has coordinates {verts[k]!r}; expected "
                        "x, y and z numbers")
     if f is None:
-        k = next(i for i, s in enumerate(tris) if _numbers([s], np.int64, 3) is None)
+        k = next(i for i, s in enumerate(tris) if _numbers(s, np.int64, 3) is None)
         raise pkg.fail(f"{where}: triangle {k} has vertices {tris[k]!r}; expected "
                        "v1, v2 and v3 indices")
     v, f = v.reshape(-1, 3), f.reshape(-1, 3)
