@@ -4,6 +4,7 @@ Triangle meshes in, per-layer int64-micron polygons out, following CuraEngine's
 design (layer schedules, simplification, layer parts) but working on whole arrays.
 """
 
+from vecslice.adaptive import adaptive_layer_heights
 from vecslice.demo import demo_mesh
 from vecslice.errors import (
     InputIndexError,
@@ -52,6 +53,7 @@ __all__ = [
     "VecsliceError",
     "VecsliceWarning",
     "__version__",
+    "adaptive_layer_heights",
     "check_mesh",
     "clean_loops",
     "demo_mesh",
