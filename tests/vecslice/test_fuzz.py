@@ -46,7 +46,9 @@ def _check(mesh, planes):
     # every closed loop is a ring of at least one vertex; open chains keep >= 2
     assert (np.diff(loops.ring_offsets) >= 1).all()
     assert (np.diff(loops.open.ring_offsets) >= 2).all()
-    s = vs.SliceSettings(layer_height=250, initial_layer_height=250)
+    # meshes up to ~60 m tall (scale 1000): above the default layer limit
+    s = vs.SliceSettings(layer_height=250, initial_layer_height=250,
+                         max_layers=1_000_000)
     model = vs.slice_mesh(mesh, s)
     # simplification may move a vertex up to max_deviation (CuraEngine's rule:
     # a short edge is replaced by the intersection of its neighbours)
@@ -93,8 +95,10 @@ def hollow_convex_parts(draw):
     m.apply_transform(trimesh.transformations.random_rotation_matrix(rng.random(3)))
     v = np.rint((m.vertices + rng.uniform(-100, 100, 3)) * 1000).astype(np.int64)
     f = np.asarray(m.faces, dtype=np.int64)
-    c = (v.min(axis=0) + v.max(axis=0)) // 2
-    inner = c + (v - c) // 3  # strictly inside: the shapes are convex, >= 1 mm
+    # the vertex centroid is inside a convex shape (the box centre need not be),
+    # so the copy shrunk towards it is strictly inside (shapes are >= 1 mm)
+    c = np.rint(v.mean(axis=0)).astype(np.int64)
+    inner = c + (v - c) // 3
     flip_outer, flip_inner = draw(st.booleans()), draw(st.booleans())
     fo = f[:, ::-1] if flip_outer else f
     fi = f if flip_inner else f[:, ::-1]  # as written, the void faces inward
