@@ -28,6 +28,7 @@ from vecslice.simplify import simplify
 from vecslice.slicing import slice_contours
 from vecslice.stitch import Stitched, stitch
 from vecslice.storage import SlicedModel, load_sliced
+from vecslice.sweeps import sweep
 from vecslice.units import COORD_LIMIT, to_microns
 
 __version__ = "0.1.0"
@@ -66,5 +67,6 @@ __all__ = [
     "slice_contours",
     "slice_mesh",
     "stitch",
+    "sweep",
     "to_microns",
 ]
