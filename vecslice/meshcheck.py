@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice._kernels.vertices import clean_mesh
+from vecslice.nesting import nesting_depth
 
 __all__ = ["LoadInfo", "MeshReport", "build_report", "clean_arrays"]
 
@@ -40,7 +41,15 @@ class LoadInfo:
         Faces removed by repair: copies of a face with the same three vertices (see
         :meth:`vecslice.Mesh.repaired`).
     faces_flipped : int
-        Faces whose winding repair reversed.
+        Faces whose winding repair reversed (to make shells consistent, and
+        whole closed shells turned to face the right way).
+    shells_reversed : int
+        Closed shells repair turned over as a whole (most of their faces
+        reversed): inside-out parts, and voids whose shell faced outward.
+    cavities_kept : int
+        Closed shells facing inward after the last repair because they lie
+        inside another closed shell (odd nesting depth): voids such as the
+        inside of a hollow ball, kept empty.
     """
 
     source: str = "arrays"
@@ -51,6 +60,8 @@ class LoadInfo:
     faces_degenerate: int = 0
     faces_duplicate: int = 0
     faces_flipped: int = 0
+    shells_reversed: int = 0
+    cavities_kept: int = 0
 
 
 class _Edges(NamedTuple):
@@ -199,24 +210,32 @@ def face_volumes(
     return np.einsum("ij,ij->i", p0, np.cross(p1, p2)) / 6.0
 
 
+class Orientation(NamedTuple):
+    """What :func:`orient_faces` decided."""
+
+    flip: NDArray[np.bool_]  # (F,) faces to reverse
+    shells_reversed: int  # closed shells with most of their faces reversed
+    cavities: int  # closed shells facing inward (odd nesting depth)
+
+
 def orient_faces(
     vertices: NDArray[np.int64], faces: NDArray[np.int64]
-) -> NDArray[np.bool_]:
-    """Which faces to reverse so each shell is consistently wound and outward.
+) -> Orientation:
+    """Which faces to reverse so each shell is consistently wound and faces right.
 
     Faces are joined across edges used by exactly two faces. Each face gets two
     nodes (as is, reversed); a joining edge links the pair of states in which the
     two faces traverse it in opposite directions. The components of this doubled
     graph split every orientable shell into two opposite classes, so one flip mask
-    orients all shells at once. Then each *closed* shell (every edge traversed
-    equally often in both directions) is reversed if its signed volume is negative,
-    and each open shell keeps whichever orientation the majority of its faces had.
-    Non-orientable shells are left as they are.
+    orients all shells at once.
 
-    Returns
-    -------
-    ndarray of shape (F,), bool
-        ``True`` for faces to reverse.
+    Then each *closed* shell (every edge traversed equally often in both
+    directions) faces by its nesting depth, the number of closed shells it lies
+    inside (:func:`vecslice.nesting.nesting_depth`): outward (positive signed
+    volume) at even depth, inward at odd depth, so the void of a hollow part stays
+    a void and a body floating in it stays solid. Each open shell keeps whichever
+    orientation the majority of its faces had. Non-orientable shells are left as
+    they are.
     """
     n = faces.shape[0]
     e = _edges(faces, vertices.shape[0])
@@ -243,8 +262,16 @@ def orient_faces(
                       minlength=n_shells)
     size = np.bincount(shell, minlength=n_shells)
     n_flip = np.bincount(shell, weights=flip, minlength=n_shells)
-    invert = np.where(is_open, 2 * n_flip > size, vol < 0)
-    return (flip ^ invert[shell]) & orientable
+    whole = np.bincount(shell, weights=orientable, minlength=n_shells) == size
+    closed = ~is_open & whole
+    odd = nesting_depth(vertices, faces, shell, closed) % 2 == 1
+    turn = closed & np.where(odd, vol > 0, vol < 0)
+    invert = np.where(is_open, 2 * n_flip > size, turn)
+    final = (flip ^ invert[shell]) & orientable
+    # turned over as a whole: most of the closed shell's faces end up reversed
+    n_final = np.bincount(shell, weights=final, minlength=n_shells)
+    return Orientation(final, int((closed & (2 * n_final > size)).sum()),
+                       int((closed & odd).sum()))
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -345,6 +372,8 @@ class MeshReport:
                 f"degenerate dropped  {li.faces_degenerate:,}",
                 f"duplicates removed  {li.faces_duplicate:,}",
                 f"faces flipped       {li.faces_flipped:,}",
+                f"shells reversed     {li.shells_reversed:,}",
+                f"cavities kept       {li.cavities_kept:,}",
             ]
         return "\n".join(lines)
 
