@@ -40,6 +40,9 @@ def layer_index(model: Any, i: object, name: str = "layer") -> int:
     if isinstance(i, (bool, np.bool_)) or not isinstance(i, (int, np.integer)):
         raise InputTypeError(f"`{name}` must be an integer layer index; got "
                              f"{type(i).__name__} {i!r}")
+    if n == 0:
+        raise InputValueError(f"`{name}` must be a layer index, but the model has "
+                              f"no layers; got {int(i)}")
     if not -n <= int(i) < n:
         raise InputValueError(f"`{name}` must be a layer index in [-{n}, {n}); "
                               f"got {int(i)}")
