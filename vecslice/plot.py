@@ -99,6 +99,15 @@ def _draw_layer(ax: Any, model: Any, k: int, shift: tuple[float, float],
                                          linewidths=1.5, label="open chains"))
 
 
+def _figsize(model: Any) -> tuple[float, float]:
+    """6.4 inches wide, as tall as the model's aspect needs (3 to 9 inches)."""
+    box = model.bounds()
+    if box is None:
+        return (6.4, 4.8)
+    w, h = (box[1] - box[0] + 2000).tolist()
+    return (6.4, float(np.clip(5.4 * h / w + 1.0, 3.0, 9.0)))
+
+
 def _frame(ax: Any, model: Any, pad_mm: float = 1.0) -> None:
     box = model.bounds()
     if box is not None:
@@ -151,7 +160,7 @@ def layer(model: Any, i: int, *, ax: Any = None, raw: Any = None,
     """
     _matplotlib()
     k = layer_index(model, i)
-    ax = _new_axes(ax)
+    ax = _new_axes(ax, _figsize(model))
     _draw_layer(ax, model, k, (0.0, 0.0), fill, 1.0)
     if raw is not None:
         from matplotlib.patches import PathPatch

@@ -9,8 +9,8 @@ from vecslice import plot
 from vecslice.svg import SVG_STYLE
 
 pytest.importorskip("matplotlib")
-from matplotlib.collections import LineCollection  # noqa: E402
-from matplotlib.path import Path  # noqa: E402
+from matplotlib.collections import LineCollection
+from matplotlib.path import Path
 
 
 @pytest.fixture(scope="module")
@@ -104,7 +104,7 @@ def test_save_layer_png_shows_the_hole(demo, tmp_path):
 
 
 def test_save_layer_error_names_the_file(demo, tmp_path):
-    with pytest.raises(vs.StorageFileError, match="cannot write .*nowhere"):
+    with pytest.raises(vs.StorageFileError, match=r"cannot write .*nowhere"):
         plot.save_layer(demo, 0, tmp_path / "nowhere" / "x.png")
 
 

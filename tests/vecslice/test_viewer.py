@@ -60,7 +60,7 @@ def test_varint_sizes_and_limit():
     assert len(varint_encode(np.array([63, -64]))) == 2
     assert len(varint_encode(np.array([64, 8191, -8192]))) == 6
     assert varint_encode(np.array([], dtype=np.int64)) == b""
-    with pytest.raises(vs.InputValueError, match="below 2\\*\\*52 .* got -4503599"):
+    with pytest.raises(vs.InputValueError, match=r"below 2\*\*52 .* got -4503599"):
         varint_encode(np.array([1, -(2**52)]))
 
 
@@ -106,7 +106,7 @@ def test_page_is_self_contained_and_escapes_the_title():
 
 def test_bad_arguments(tmp_path):
     model = vs.slice_mesh(vs.demo_mesh())
-    with pytest.raises(vs.InputTypeError, match="`model` must be a vecslice.Sliced"):
+    with pytest.raises(vs.InputTypeError, match=r"`model` must be a vecslice\.Sliced"):
         viewer_html(vs.demo_mesh())
     with pytest.raises(vs.InputTypeError, match="`title` must be a str; got int"):
         viewer_html(model, title=3)
