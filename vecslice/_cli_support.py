@@ -56,6 +56,7 @@ class CompileNotice:
         self.compiled = 0
         self.seconds = 0.0
         self._lock = threading.Lock()
+        self._depth = threading.local()
         self._listener: Any = None
 
     def _announce(self) -> None:
@@ -67,7 +68,14 @@ class CompileNotice:
                   file=self.stream or sys.stderr, flush=True)
 
     def _ready(self, event: str, name: str, seconds: float) -> None:
-        if event == "end":
+        # kernels called by a kernel are made ready inside their caller's
+        # compilation: count the outermost ones only, per thread
+        depth = getattr(self._depth, "n", 0)
+        if event == "start":
+            self._depth.n = depth + 1
+            return
+        self._depth.n = depth - 1
+        if depth == 1:
             with self._lock:
                 self.seconds += seconds
 

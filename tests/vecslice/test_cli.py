@@ -314,3 +314,36 @@ def test_usage_errors_exit_2(tmp_path, args, fragment):
 def test_python_m_vecslice_cli_also_works(tmp_path):
     p = run_cli("--version", cwd=tmp_path, module="vecslice.cli")
     assert p.returncode == 0 and p.stdout.strip() == f"vecslice {vs.__version__}"
+
+
+def _stderr_on_a_terminal(args, cwd):
+    """Run with stderr on a pseudo-terminal; return what it showed."""
+    import fcntl
+    import pty
+    import struct
+    import termios
+
+    leader, follower = pty.openpty()
+    fcntl.ioctl(follower, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))
+    proc = subprocess.Popen([sys.executable, "-m", "vecslice", *args], cwd=cwd,
+                            stdout=subprocess.PIPE, stderr=follower)
+    os.close(follower)
+    chunks = []
+    while True:
+        try:
+            data = os.read(leader, 4096)
+        except OSError:  # the terminal closed
+            break
+        if not data:
+            break
+        chunks.append(data)
+    proc.communicate(timeout=300)
+    os.close(leader)
+    assert proc.returncode == 0
+    return b"".join(chunks).decode(errors="replace")
+
+
+def test_progress_bar_only_on_a_terminal(tmp_path):
+    shown = _stderr_on_a_terminal([], tmp_path)
+    assert "stage" in shown and "7/7" in shown  # tqdm's bar over the 7 stages
+    assert "stage" not in _stderr_on_a_terminal(["--no-progress"], tmp_path)
