@@ -11,6 +11,8 @@ time it is used, so ``vecslice --help`` or ``import vecslice`` never waits for t
 from __future__ import annotations
 
 import importlib
+import sys
+import types
 from typing import TYPE_CHECKING, Any
 
 from vecslice.errors import (
@@ -94,6 +96,24 @@ __all__ = [
     "stitch",
     "to_microns",
 ]
+
+
+class _Package(types.ModuleType):
+    """The vecslice package: a public function named like its submodule wins.
+
+    Importing ``vecslice.simplify`` (or ``vecslice.stitch``) makes Python bind the
+    submodule as an attribute of the package, which would hide the lazily loaded
+    function ``vs.simplify``; such bindings are skipped (the submodule stays in
+    ``sys.modules``), as the eager ``from vecslice.simplify import simplify`` did.
+    """
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name in _LAZY and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
 
 
 def __getattr__(name: str) -> Any:

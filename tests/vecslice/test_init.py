@@ -1,7 +1,9 @@
 """`import vecslice` is light: names load on first use."""
 
+import importlib.util
 import subprocess
 import sys
+import types
 
 import pytest
 
@@ -52,3 +54,20 @@ def test_submodules_and_unknown_names():
     with pytest.raises(AttributeError, match="module 'vecslice' has no attribute "
                        "'slice_meshes'"):
         vs.slice_meshes  # noqa: B018
+
+
+def test_functions_named_like_their_module_win():
+    # vecslice.simplify and vecslice.stitch are modules holding functions of the
+    # same name; importing the module first must not hide the function
+    code = ("import vecslice.simplify, vecslice.stitch, vecslice.pipeline\n"
+            "import vecslice as vs\n"
+            "assert vs.simplify.__module__ == 'vecslice.simplify', vs.simplify\n"
+            "assert vs.stitch.__module__ == 'vecslice.stitch', vs.stitch\n"
+            "import sys; assert sys.modules['vecslice.simplify'].simplify is "
+            "vs.simplify\n")
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+    clash = [n for n in vs.__all__ if importlib.util.find_spec(f"vecslice.{n}")]
+    assert sorted(clash) == ["simplify", "stitch"]
+    for name in clash:
+        assert callable(getattr(vs, name)) and not isinstance(getattr(vs, name),
+                                                              types.ModuleType)
