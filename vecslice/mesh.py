@@ -20,7 +20,12 @@ import numpy as np
 import trimesh
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._validate import as_int_array, check_coord_range, check_int
+from vecslice._validate import (
+    as_int_array,
+    check_coord_range,
+    check_int,
+    check_option,
+)
 from vecslice.errors import InputTypeError, InputValueError, MeshFileError
 from vecslice.meshcheck import (
     LoadInfo,
@@ -510,6 +515,7 @@ def load_mesh(
     *,
     scale: float = 1.0,
     repair: bool = True,
+    compat: str = "vecslice",
 ) -> Mesh:
     """Read a mesh file (or take a trimesh object) as an int64-µm :class:`Mesh`.
 
@@ -523,7 +529,13 @@ def load_mesh(
         File units to millimetres (25.4 for inches, 1000 for metres).
     repair : bool, default True
         Remove duplicate faces and orient every shell consistently and outward
-        (see :meth:`Mesh.repaired`).
+        (see :meth:`Mesh.repaired`). Ignored with ``compat="cura"``.
+    compat : {'vecslice', 'cura'}, default 'vecslice'
+        ``'cura'`` reads the mesh as CuraEngine does (STL only, or a trimesh
+        object): float32 values, ``MM2INT``, 30 µm melding through CuraEngine's hash
+        cells in file order, degenerate triangles dropped and nothing repaired;
+        vertices and faces come in CuraEngine's order (see
+        :mod:`vecslice.cura_stl`). Slice it with ``SliceSettings(compat="cura")``.
 
     Returns
     -------
@@ -542,6 +554,8 @@ def load_mesh(
     InputValueError
         If ``scale`` is not positive and finite, a vertex is NaN or infinite, or a
         coordinate reaches 2**30 µm.
+    SettingsError
+        If ``compat`` is not 'vecslice' or 'cura'.
 
     Examples
     --------
@@ -549,8 +563,14 @@ def load_mesh(
     >>> box = load_mesh(trimesh.creation.box((10, 20, 30)))
     >>> box.bounds.tolist(), box.n_faces, box.is_watertight
     ([[-5000, -10000, -15000], [5000, 10000, 15000]], 12, True)
+    >>> load_mesh(trimesh.creation.box((10, 20, 30)), compat="cura").faces[:2].tolist()
+    [[0, 1, 2], [3, 0, 2]]
     """
     s = _check_scale(scale)
+    if check_option(compat, ("vecslice", "cura"), "compat") == "cura":
+        from vecslice.cura_stl import load_mesh_cura
+
+        return load_mesh_cura(path_or_trimesh, s)  # type: ignore[no-any-return]
     if isinstance(path_or_trimesh, (str, os.PathLike)):
         path = Path(path_or_trimesh)
         source = str(path)

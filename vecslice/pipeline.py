@@ -179,6 +179,12 @@ def slice_mesh(
     intersects them); :func:`vecslice.make_parts` (union with NonZero or EvenOdd,
     split into parts).
 
+    With ``settings.compat == "cura"`` the stages before the union are
+    CuraEngine's own (:mod:`vecslice.cura_pipeline`): per-face crossings, its loop
+    building, stitching, filter, simplification and open-polyline stitcher, so a
+    mesh loaded with ``load_mesh(path, compat="cura")`` reaches the union with the
+    polygons CuraEngine makes. The union stays manifold3d's (see the README).
+
     Examples
     --------
     >>> import trimesh, vecslice as vs
@@ -194,6 +200,10 @@ def slice_mesh(
             "`settings` must be a vecslice.SliceSettings; "
             f"got {type(settings).__name__}"
         )
+    if settings.compat == "cura":
+        from vecslice.cura_pipeline import slice_mesh_cura
+
+        return slice_mesh_cura(mesh, settings, _Stages(_STAGES, progress), times)
     st = _Stages(_STAGES, progress)
     try:
         slice_z, print_z, thickness = st.run("layers", layer_heights, mesh, settings)

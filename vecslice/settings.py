@@ -9,9 +9,10 @@ from typing import Literal
 from vecslice._validate import check_int, check_option
 from vecslice.errors import InputTypeError
 
-__all__ = ["SLICING_TOLERANCES", "SliceSettings"]
+__all__ = ["COMPAT_MODES", "SLICING_TOLERANCES", "SliceSettings"]
 
 SLICING_TOLERANCES = ("middle", "inclusive", "exclusive")
+COMPAT_MODES = ("vecslice", "cura")
 
 
 @dataclass(frozen=True, slots=True)
@@ -38,6 +39,17 @@ class SliceSettings:
     union_overlapping_volumes : bool, default True
         Union the loops of a layer with the NonZero rule (overlapping bodies merge);
         ``False`` uses EvenOdd.
+    compat : {'vecslice', 'cura'}, default 'vecslice'
+        ``'cura'`` builds the polygons as CuraEngine does, with all its rounding
+        (``spec/CURA_COMPAT.md``): two crossings per face from the face's own
+        vertex order with CuraEngine's biased ``interpolate``, its case table and
+        on-plane rules, loops started at the lowest unused segment with the
+        near-duplicate closing point kept into simplification, its chaining,
+        stitching, circumference filter and open-polyline stitcher. Use it with a
+        mesh loaded with ``load_mesh(path, compat="cura")`` to get the polygons
+        CuraEngine hands to its union; the union itself stays manifold3d's. The
+        default ``'vecslice'`` computes one crossing per mesh edge, rounded once,
+        so loops are watertight by construction.
 
     Raises
     ------
@@ -53,6 +65,7 @@ class SliceSettings:
     max_area_deviation: int = 50000
     minimum_polygon_circumference: int = 1000
     union_overlapping_volumes: bool = True
+    compat: Literal["vecslice", "cura"] = "vecslice"
 
     def __init__(
         self,
@@ -65,6 +78,7 @@ class SliceSettings:
         max_area_deviation: int = 50000,
         minimum_polygon_circumference: int = 1000,
         union_overlapping_volumes: bool = True,
+        compat: Literal["vecslice", "cura"] = "vecslice",
         **unknown: object,
     ) -> None:
         if unknown:
@@ -94,6 +108,7 @@ class SliceSettings:
                       maximum=2**62)
         object.__setattr__(self, "max_area_deviation", v)
         check_option(self.slicing_tolerance, SLICING_TOLERANCES, "slicing_tolerance")
+        check_option(self.compat, COMPAT_MODES, "compat")
         if not isinstance(self.union_overlapping_volumes, bool):
             raise InputTypeError(
                 "`union_overlapping_volumes` must be a bool; got "

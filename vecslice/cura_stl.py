@@ -1,0 +1,338 @@
+r"""CuraEngine's STL reading and vertex melding: ``load_mesh(..., compat="cura")``.
+
+Follows ``spec/CURA_COMPAT.md`` section 2 (CuraEngine 07475e3, its ``loadMeshSTL``,
+``Mesh::addFace`` and ``Mesh::finish``), written from that description:
+
+* **Detection.** Leading whitespace is skipped; if the next 5 bytes are "solid"
+  (any case) the file is read as ASCII, and if that gives no triangle, as binary.
+* **ASCII.** Lines end at ``\n`` or ``\r``; a line is a vertex if it matches
+  ``sscanf(" vertex %f %f %f")``: optional whitespace, the word ``vertex`` and three
+  C floating-point numbers (decimal, hexadecimal, ``inf``, ``nan``), each parsed to
+  the nearest **float32**. Every 3 vertices form a triangle; text after the third
+  number is ignored.
+* **Binary.** 80-byte header, a uint32 count, 50-byte records (normal, 9 float32,
+  2 bytes). The number of records comes from the file size; a count that differs
+  is warned about (:class:`vecslice.VecsliceWarning`).
+* **Conversion.** ``MM2INT(v * scale)`` in double: ``trunc(x * 1000 + 0.5 *
+  sign(x))``, i.e. round half away from zero after the double products.
+* **Melding.** A corner reuses the first earlier vertex (in creation order) of its
+  30 µm hash cell within 30 µm (``|d| <= 30`` per axis and ``d.d <= 900``); two
+  vertices 1 µm apart across a cell boundary stay apart. Otherwise it creates a
+  vertex. See :func:`vecslice._kernels.cura_mesh.meld_corners`.
+* **Faces.** A triangle with two equal vertex indices is dropped (its vertices stay,
+  as in CuraEngine, and count for the bounding box). Nothing else is repaired:
+  winding, duplicates, holes and non-manifold edges are kept as in the file.
+
+Interpretations: a float32 value is the correctly rounded one (glibc's ``strtof``,
+x86-64 Linux). One pathological case differs from glibc's ``sscanf``: a third
+number followed by an incomplete exponent (``vertex 1 2 3e+x``) is read as 3 here,
+where glibc consumes ``3e+`` and rejects the line. The mesh is not moved: CuraEngine's
+``MeshGroup::finalize`` (bed centring, ``center_object``) is outside the slicer,
+and vecslice measures layers from the mesh's lowest point anyway.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vecslice._kernels.cura_mesh import meld_corners
+from vecslice.errors import (
+    InputTypeError,
+    InputValueError,
+    MeshFileError,
+    VecsliceWarning,
+)
+from vecslice.units import COORD_LIMIT
+
+__all__ = ["MELD_DISTANCE", "cura_mesh_from_corners", "load_mesh_cura", "mm2int"]
+
+MELD_DISTANCE = 30
+"""CuraEngine's ``vertex_meld_distance`` = MM2INT(0.03) µm."""
+
+_WS = rb"[ \t\v\f]*"  # isspace() within one line (lines end at \n and \r)
+_NUMBER = (
+    rb"[+-]?(?:"
+    rb"0[xX](?:[0-9a-fA-F]+\.?[0-9a-fA-F]*|\.[0-9a-fA-F]+)(?:[pP][+-]?[0-9]+)?"
+    rb"|(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
+    rb"|[iI][nN][fF](?:[iI][nN][iI][tT][yY])?"
+    rb"|[nN][aA][nN](?:\([0-9A-Za-z_]*\))?"
+    rb")"
+)
+_VERTEX = re.compile(
+    rb"^" + _WS + rb"vertex" + _WS + rb"(" + _NUMBER + rb")" + _WS + rb"("
+    + _NUMBER + rb")" + _WS + rb"(" + _NUMBER + rb")",
+    re.MULTILINE,
+)
+_SPACE = b" \t\n\v\f\r"
+_RECORD = np.dtype([("normal", "<f4", 3), ("v", "<f4", 9), ("attr", "<u2")])
+
+
+def _c_double(token: bytes) -> float:
+    """A C ``strtod`` token as a Python float (exact for hex, nan and inf)."""
+    t = token.lower()
+    body = t.lstrip(b"+-")
+    sign = -1.0 if t.startswith(b"-") else 1.0
+    if body.startswith(b"0x"):
+        return float.fromhex(t.decode())
+    if body.startswith(b"inf"):
+        return sign * np.inf
+    if body.startswith(b"nan"):
+        return np.nan
+    return float(t)
+
+
+def _to_float32(tokens: list[bytes]) -> NDArray[np.float32]:
+    """Parse C float tokens to the nearest float32 (ties to even), like strtof.
+
+    Parsing to double and rounding that to float32 can differ from one rounding
+    only when the double lies exactly halfway between two float32 values; those
+    few are redone exactly from the decimal text.
+    """
+    if not tokens:
+        return np.empty(0, dtype=np.float32)
+    try:
+        d = np.array(tokens).astype(np.float64)
+    except ValueError:  # hex, nan(...) and the like: rare, one by one
+        d = np.array([_c_double(t) for t in tokens], dtype=np.float64)
+    with np.errstate(over="ignore"):
+        f = d.astype(np.float32)
+    bits = d.view(np.uint64)
+    low = bits & np.uint64((1 << 29) - 1)
+    tie = np.flatnonzero((low == np.uint64(1 << 28)) & (np.abs(d) >= 2.0**-126)
+                         & np.isfinite(d))
+    for i in tie:
+        t = tokens[i].lower()
+        if b"x" in t:
+            continue  # a hex float is exact in double: no second rounding
+        exact = Fraction(t.decode())
+        mid = Fraction(float(d[i]))
+        if exact == mid:
+            continue  # a true tie: float32 rounding already went to even
+        toward = np.float32(np.inf) if exact > mid else np.float32(-np.inf)
+        if (f[i] > d[i]) != (exact > mid):
+            f[i] = np.nextafter(f[i], toward)
+    return f
+
+
+def _parse_ascii(data: bytes) -> NDArray[np.float32]:
+    """The ``vertex`` values of an ASCII STL, (N, 3) float32 in file order."""
+    text = data.replace(b"\r", b"\n")
+    tokens = [t for m in _VERTEX.findall(text) for t in m]
+    return _to_float32(tokens).reshape(-1, 3)
+
+
+def _parse_binary(path: Path, data: bytes) -> NDArray[np.float32]:
+    """The corners of a binary STL, (3F, 3) float32; F from the file size."""
+    if len(data) < 84:
+        raise MeshFileError(
+            f"'{path}' is not an STL file: a binary STL needs an 84-byte header; "
+            f"the file has {len(data)} bytes"
+        )
+    n = (len(data) - 84) // 50
+    announced = int(np.frombuffer(data, dtype="<u4", count=1, offset=80)[0])
+    if announced != n:
+        warnings.warn(
+            f"'{path}': the binary STL header announces {announced} triangles; the "
+            f"file size gives {n} (reading {n}, as CuraEngine does)",
+            VecsliceWarning, stacklevel=4,
+        )
+    rec = np.frombuffer(data, dtype=_RECORD, count=n, offset=84)
+    return np.ascontiguousarray(rec["v"]).reshape(-1, 3)
+
+
+def read_stl_corners(path: Path) -> NDArray[np.float32]:
+    """Triangle corners of an STL file as CuraEngine reads them, (3F, 3) float32.
+
+    Raises
+    ------
+    MeshFileError
+        If the file is missing, a directory, unreadable, or too short for its type.
+    """
+    if not path.exists():
+        raise MeshFileError(f"mesh file not found: '{path}'")
+    if path.is_dir():
+        raise MeshFileError(f"'{path}' is a directory, not a mesh file")
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise MeshFileError(f"cannot read '{path}': {exc}") from exc
+    body = data.lstrip(_SPACE)
+    if len(body) < 5:
+        raise MeshFileError(
+            f"'{path}' is not an STL file: fewer than 5 bytes after leading "
+            f"whitespace (got {len(body)})"
+        )
+    if body[:5].lower() == b"solid":
+        v = _parse_ascii(data)
+        n = v.shape[0] - v.shape[0] % 3
+        if n:
+            return v[:n]
+    return _parse_binary(path, data)
+
+
+def mm2int(mm: NDArray[Any], name: str = "vertices") -> NDArray[np.int64]:
+    """CuraEngine's ``MM2INT`` in double: ``trunc(x * 1000 + 0.5 * sign(x))``.
+
+    Raises
+    ------
+    InputValueError
+        If a value is NaN or infinite or reaches 2**30 µm in magnitude.
+
+    Examples
+    --------
+    >>> mm2int(np.array([0.0005, -0.0005, 1.25])).tolist()
+    [1, -1, 1250]
+    """
+    x = np.asarray(mm, dtype=np.float64)
+    bad = np.flatnonzero(~np.isfinite(x.ravel()))
+    if bad.size:
+        i = int(bad[0])
+        raise InputValueError(
+            f"`{name}` must be finite; got {float(x.ravel()[i])} at corner "
+            f"{i // 3} (triangle {i // 9})"
+        )
+    um = np.trunc(x * 1000.0 + 0.5 * np.sign(x))
+    big = np.flatnonzero(np.abs(um.ravel()) >= COORD_LIMIT)
+    if big.size:
+        i = int(big[0])
+        raise InputValueError(
+            f"`{name}` must be below {COORD_LIMIT / 1000:g} mm in magnitude (2**30 "
+            f"µm); got {float(x.ravel()[i])!r} mm at corner {i // 3} "
+            f"(triangle {i // 9})"
+        )
+    return um.astype(np.int64)
+
+
+def _trunc_div(a: NDArray[np.int64], b: int) -> NDArray[np.int64]:
+    """C integer division ``a / b`` (truncating toward zero), b > 0."""
+    q = np.abs(a) // b
+    return np.where(a < 0, -q, q)
+
+
+def meld(corners_um: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Meld corners (3F, 3) µm into ``(vertices, corner_vertex)``, CuraEngine's way.
+
+    Vertices come in creation order (the file order of the corner that created
+    each); ``corner_vertex[i]`` is the vertex corner ``i`` uses.
+
+    Examples
+    --------
+    14 and 15 µm are 1 µm apart across a cell boundary (not melded); 15 and 44 µm
+    share a cell and are 29 µm apart (melded):
+
+    >>> v, cv = meld(np.array([[14, 0, 0], [15, 0, 0], [44, 0, 0]]))
+    >>> v.tolist(), cv.tolist()
+    ([[14, 0, 0], [15, 0, 0]], [0, 1, 1])
+    """
+    c = np.ascontiguousarray(corners_um, dtype=np.int64)
+    n = c.shape[0]
+    q = _trunc_div(c + MELD_DISTANCE // 2, MELD_DISTANCE)
+    order = np.lexsort((q[:, 2], q[:, 1], q[:, 0])).astype(np.int64)
+    qs = q[order]
+    new_cell = np.ones(n, dtype=bool)
+    if n:
+        new_cell[1:] = (qs[1:] != qs[:-1]).any(axis=1)
+    cell_offsets = np.append(np.flatnonzero(new_cell), n).astype(np.int64)
+    rep = meld_corners(c, order, cell_offsets, MELD_DISTANCE)
+    created = rep == np.arange(n, dtype=np.int64)
+    new_id = np.cumsum(created, dtype=np.int64) - 1
+    return np.ascontiguousarray(c[created]), new_id[rep]
+
+
+def cura_mesh_from_corners(corners_um: NDArray[np.int64], source: str) -> Any:
+    """A :class:`vecslice.Mesh` from triangle corners (3F, 3) µm in file order.
+
+    Melds the corners (:func:`meld`) and drops triangles with two equal vertex
+    indices; vertices, faces and their order are CuraEngine's.
+
+    Raises
+    ------
+    InputValueError
+        If no triangle is left.
+
+    Examples
+    --------
+    The second triangle's corners 0 and 10 µm meld, so it is dropped; its third
+    vertex stays:
+
+    >>> m = cura_mesh_from_corners(np.array(
+    ...     [[0, 0, 0], [1000, 0, 0], [0, 1000, 0], [0, 0, 0], [10, 0, 0],
+    ...      [0, 0, 1000]]), "example")
+    >>> m.faces.tolist(), m.n_vertices, m.load_info.faces_degenerate
+    ([[0, 1, 2]], 4, 1)
+    """
+    from vecslice.mesh import LoadInfo, Mesh
+
+    vertices, corner_vertex = meld(corners_um)
+    f = corner_vertex.reshape(-1, 3)
+    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+    faces = np.ascontiguousarray(f[keep])
+    n_in = int(f.shape[0])
+    if faces.shape[0] == 0:
+        raise InputValueError(
+            f"`faces` must hold at least one non-degenerate triangle after "
+            f"CuraEngine's 30 µm melding; all {n_in} triangles of {source} collapse"
+        )
+    info = LoadInfo(
+        source, n_in, 3 * n_in,
+        vertices_merged=3 * n_in - int(vertices.shape[0]),
+        faces_degenerate=n_in - int(faces.shape[0]),
+    )
+    return Mesh._trusted(vertices, faces, info)
+
+
+def load_mesh_cura(source: Any, scale: float) -> Any:
+    """``load_mesh(source, scale=scale, compat="cura")``; see :func:`load_mesh`.
+
+    STL files are read as CuraEngine reads them (float32 values). A trimesh
+    object's triangles are taken corner by corner in face order (float64 values,
+    what CuraEngine would see if the file held them exactly). Other file types
+    raise :class:`MeshFileError`: CuraEngine itself reads only STL.
+    """
+    import trimesh
+
+    from vecslice.mesh import _scene_arrays
+
+    if isinstance(source, trimesh.Trimesh):
+        name = "trimesh.Trimesh"
+        v = np.asarray(source.vertices, dtype=np.float64)
+        corners = v[np.asarray(source.faces, dtype=np.int64).reshape(-1)]
+    elif isinstance(source, trimesh.Scene):
+        name = "trimesh.Scene"
+        v, f = _scene_arrays(source)
+        corners = np.asarray(v, dtype=np.float64)[f.reshape(-1)]
+    elif isinstance(source, (str, Path)) or hasattr(source, "__fspath__"):
+        path = Path(source)
+        name = str(path)
+        if not path.exists():
+            raise MeshFileError(f"mesh file not found: '{path}'")
+        if path.is_dir():
+            raise MeshFileError(f"'{path}' is a directory, not a mesh file")
+        if path.suffix.lower() != ".stl":
+            raise MeshFileError(
+                f"'{path}': compat='cura' reads STL files only (CuraEngine's own "
+                f"reader); got suffix '{path.suffix}'. Load it with "
+                "compat='vecslice', or pass a trimesh object"
+            )
+        corners = read_stl_corners(path).astype(np.float64)
+    else:
+        raise InputTypeError(
+            "`path_or_trimesh` must be a file path, trimesh.Trimesh or "
+            f"trimesh.Scene; got {type(source).__name__}"
+        )
+    if corners.shape[0] == 0:
+        raise MeshFileError(f"'{name}' holds no triangles")
+    um = mm2int(corners * scale if scale != 1.0 else corners)
+    try:
+        return cura_mesh_from_corners(um, name)
+    except InputValueError as exc:
+        if name.startswith("trimesh"):
+            raise
+        raise MeshFileError(f"'{name}': {exc}") from exc
