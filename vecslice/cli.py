@@ -77,6 +77,9 @@ SLICE_OPTIONS: tuple[Option, ...] = (
            "loops with a shorter perimeter are dropped"),
     Option("--even-odd", "union_overlapping_volumes", "off",
            "overlapping volumes cancel (even-odd rule) instead of merging (nonzero)"),
+    Option("--compat", "compat", "choice",
+           "'cura' reads the mesh and builds the polygons as CuraEngine does, its "
+           "rounding included (the file is then not repaired)", ("vecslice", "cura")),
 )
 
 
@@ -246,7 +249,7 @@ def _is_npz(path: Path) -> bool:
     return path.suffix.lower() == ".npz"
 
 
-def _load(path: Path | None, args: argparse.Namespace) -> Any:
+def _load(path: Path | None, args: argparse.Namespace, settings: Any) -> Any:
     """The mesh (or the demo model), with the load report printed."""
     import numpy as np
 
@@ -262,7 +265,11 @@ def _load(path: Path | None, args: argparse.Namespace) -> Any:
         from vecslice.mesh import load_mesh
 
         scale = 1.0 if args.scale is None else args.scale
-        mesh = _work(load_mesh, path, scale=scale, repair=not args.no_repair)
+        # compat="cura" reads the file as CuraEngine does (the default: omitted)
+        compat = {"compat": settings.compat} \
+            if getattr(settings, "compat", "vecslice") != "vecslice" else {}
+        mesh = _work(load_mesh, path, scale=scale, repair=not args.no_repair,
+                     **compat)
     from vecslice.mesh import check_mesh
 
     report = _work(check_mesh, mesh)
@@ -331,7 +338,7 @@ def _model_for(args: argparse.Namespace) -> tuple[Any, str]:
         return _work(load_sliced, args.file), args.file.name
     settings = settings_from_args(args)
     t = time.perf_counter()
-    mesh = _load(args.file, args)
+    mesh = _load(args.file, args, settings)
     return _slice(mesh, args, settings, time.perf_counter() - t), args.file.name
 
 
@@ -340,7 +347,7 @@ def cmd_slice(args: argparse.Namespace) -> None:
     settings = settings_from_args(args)
     out = check_output(args.output)
     t = time.perf_counter()
-    mesh = _load(args.model, args)
+    mesh = _load(args.model, args, settings)
     model = _slice(mesh, args, settings, time.perf_counter() - t)
     if out is not None:
         model.save(out)

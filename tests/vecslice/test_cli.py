@@ -85,6 +85,21 @@ def test_model_alone_is_short_for_slice(tmp_path):
     assert np.array_equal(ma.coords, mb.coords) and ma.n_layers == mb.n_layers == 26
 
 
+def test_compat_cura_reads_and_slices_as_cura_does(tmp_path):
+    # the 1000-gon cylinder: CuraEngine's reading and polygons differ from the
+    # default's, and both the loading and the slicing options must be passed on
+    path = mesh("cura/cylinder1000.stl")
+    p = run_cli(path, "--compat", "cura", "-o", "cyl.npz", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    want = vs.slice_mesh(vs.load_mesh(path, compat="cura"),
+                         vs.SliceSettings(compat="cura"))
+    got = vs.load_sliced(tmp_path / "cyl.npz")
+    assert np.array_equal(got.coords, want.coords)
+    assert np.array_equal(got.ring_offsets, want.ring_offsets)
+    half = vs.slice_mesh(vs.load_mesh(path), vs.SliceSettings(compat="cura"))
+    assert got.coords.shape != half.coords.shape  # the reading matters here
+
+
 def test_repair_is_reported_and_metres_get_a_hint(tmp_path):
     path = mesh("hourglass.stl")
     p = run_cli("slice", path, cwd=tmp_path)
