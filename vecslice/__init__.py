@@ -16,6 +16,7 @@ import types
 from typing import TYPE_CHECKING, Any
 
 from vecslice.errors import (
+    InputIndexError,
     InputTypeError,
     InputValueError,
     LayoutError,
@@ -41,6 +42,7 @@ _LAZY = {
     "SlicedModel": "vecslice.storage",
     "StageTimes": "vecslice.pipeline",
     "Stitched": "vecslice.stitch",
+    "adaptive_layer_heights": "vecslice.adaptive",
     "check_mesh": "vecslice.mesh",
     "clean_loops": "vecslice.pipeline",
     "demo_mesh": "vecslice.demo",
@@ -62,6 +64,7 @@ _SUBMODULES = ("plot", "svg", "viewer")
 
 __all__ = [
     "COORD_LIMIT",
+    "InputIndexError",
     "InputTypeError",
     "InputValueError",
     "LayerPaths",
@@ -81,6 +84,7 @@ __all__ = [
     "VecsliceError",
     "VecsliceWarning",
     "__version__",
+    "adaptive_layer_heights",
     "check_mesh",
     "clean_loops",
     "demo_mesh",
@@ -132,6 +136,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # static analysers see the plain imports
+    from vecslice.adaptive import adaptive_layer_heights
     from vecslice.demo import demo_mesh
     from vecslice.interrupt import run_interruptible
     from vecslice.layers import layer_heights

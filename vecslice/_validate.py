@@ -20,7 +20,9 @@ __all__ = [
     "as_coords",
     "as_int_array",
     "as_offsets",
+    "check_bool",
     "check_int",
+    "check_layer_count",
     "check_option",
 ]
 
@@ -112,22 +114,74 @@ def as_offsets(value: ArrayLike, n_below: int, name: str) -> NDArray[np.int64]:
 
 
 def check_int(
-    value: object, name: str, *, minimum: int | None = None, maximum: int | None = None
+    value: object,
+    name: str,
+    *,
+    minimum: int | None = None,
+    maximum: int | None = None,
+    what: str = "an integer number of µm",
+    setting: bool = True,
 ) -> int:
-    """Return ``value`` as a Python int, checking its type and range."""
+    """Return ``value`` as a Python int, checking its type and range.
+
+    ``what`` describes the expected value in the type error. Errors are
+    :class:`SettingsError` (and its type counterpart) if ``setting``, else
+    :class:`InputValueError` / :class:`InputTypeError`.
+    """
+    type_error = SettingsTypeError if setting else InputTypeError
+    value_error = SettingsError if setting else InputValueError
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
         if isinstance(value, float) and np.isfinite(value) and value == int(value):
             value = int(value)
         else:
-            raise SettingsTypeError(
-                f"`{name}` must be an integer number of µm; got {_describe(value)}"
-            )
+            raise type_error(f"`{name}` must be {what}; got {_describe(value)}")
     v = int(value)
     if minimum is not None and v < minimum:
-        raise SettingsError(f"`{name}` must be >= {minimum}; got {v}")
+        raise value_error(f"`{name}` must be >= {minimum}; got {v}")
     if maximum is not None and v > maximum:
-        raise SettingsError(f"`{name}` must be <= {maximum}; got {v}")
+        raise value_error(f"`{name}` must be <= {maximum}; got {v}")
     return v
+
+
+def check_bool(value: object, name: str) -> bool:
+    """Return ``value`` if it is a bool (or numpy bool); raise InputTypeError.
+
+    Options are never taken by truthiness: ``"no"`` is not False.
+
+    Examples
+    --------
+    >>> check_bool(False, "compress")
+    False
+    >>> check_bool("no", "compress")
+    Traceback (most recent call last):
+    ...
+    vecslice.errors.InputTypeError: `compress` must be True or False; got str 'no'
+    """
+    if not isinstance(value, (bool, np.bool_)):
+        raise InputTypeError(f"`{name}` must be True or False; got {_describe(value)}")
+    return bool(value)
+
+
+def check_layer_count(n: int, max_layers: int, why: str, fix: str) -> None:
+    """Raise a SettingsError if ``n`` layers exceed ``max_layers``.
+
+    Called before any per-layer allocation. ``why`` says where ``n`` comes from
+    (e.g. "a mesh 1000000000 µm tall at layer_height 100 µm") and ``fix`` how to
+    raise the limit, with ``{n}`` for the count (e.g. "SliceSettings(max_layers={n})").
+
+    Examples
+    --------
+    >>> check_layer_count(7, 5, "7 heights", "f(max_layers={n})")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    vecslice.errors.SettingsError: the layer count must be <= `max_layers` (5); ...
+    """
+    if n > max_layers:
+        raise SettingsError(
+            f"the layer count must be <= `max_layers` ({max_layers}); got {n} layers "
+            f"({why}). Memory and time grow with the layers; if this is intended, "
+            f"raise the limit: {fix.replace('{n}', str(n))} or more"
+        )
 
 
 def check_option(value: object, options: Sequence[str], name: str) -> str:

@@ -47,8 +47,9 @@ class Option:
     """A command-line option that sets one :class:`vecslice.SliceSettings` field.
 
     ``kind`` is ``"mm"`` (a length in mm, converted once to int µm, rounding half
-    away from zero as :func:`vecslice.to_microns` does), ``"choice"`` (one of
-    ``choices``), ``"on"`` or ``"off"`` (a flag setting the field to True/False).
+    away from zero as :func:`vecslice.to_microns` does), ``"int"`` (a count),
+    ``"choice"`` (one of ``choices``), ``"on"`` or ``"off"`` (a flag setting the
+    field to True/False).
     The default shown in ``--help`` is ``SliceSettings()``'s, i.e. Cura's.
     """
 
@@ -80,6 +81,18 @@ SLICE_OPTIONS: tuple[Option, ...] = (
     Option("--compat", "compat", "choice",
            "'cura' reads the mesh and builds the polygons as CuraEngine does, its "
            "rounding included (the file is then not repaired)", ("vecslice", "cura")),
+    Option("--adaptive-layers", "adaptive_layers", "on",
+           "Cura's adaptive layer heights: thinner layers where the surface is "
+           "shallow, thicker where it is steep"),
+    Option("--adaptive-variation", "adaptive_variation", "mm",
+           "adaptive layers are the layer height plus or minus this"),
+    Option("--adaptive-variation-step", "adaptive_variation_step", "mm",
+           "spacing of the allowed adaptive heights"),
+    Option("--adaptive-threshold", "adaptive_threshold", "mm",
+           "largest allowed stair-step width (Cura's topography size)"),
+    Option("--max-layers", "max_layers", "int",
+           "refuse a slice with more layers than this (a guard against files in "
+           "the wrong unit)"),
 )
 
 
@@ -93,6 +106,9 @@ def _add_slice_options(parser: argparse.ArgumentParser) -> None:
         if opt.kind == "mm":
             group.add_argument(opt.flag, dest=opt.setting, type=float, metavar="MM",
                                help=f"{opt.help} (default {default / 1000:g})")
+        elif opt.kind == "int":
+            group.add_argument(opt.flag, dest=opt.setting, type=int, metavar="N",
+                               help=f"{opt.help} (default {default:,})")
         elif opt.kind == "choice":
             group.add_argument(opt.flag, dest=opt.setting, choices=opt.choices,
                                help=f"{opt.help} (default {default})")

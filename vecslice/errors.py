@@ -8,6 +8,7 @@ builtin that fits (``ValueError``, ``TypeError`` or ``OSError``), so generic
 from __future__ import annotations
 
 __all__ = [
+    "InputIndexError",
     "InputTypeError",
     "InputValueError",
     "LayoutError",
@@ -30,6 +31,10 @@ class InputValueError(VecsliceError, ValueError):
 
 class InputTypeError(VecsliceError, TypeError):
     """An argument has the wrong type or dtype."""
+
+
+class InputIndexError(InputValueError, IndexError):
+    """An index (of a layer, part or ring) is out of range."""
 
 
 class LayoutError(InputValueError):

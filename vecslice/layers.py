@@ -7,7 +7,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vecslice._validate import check_int
+from vecslice._validate import check_int, check_layer_count
+from vecslice.adaptive import adaptive_layer_heights
 from vecslice.errors import InputTypeError
 from vecslice.settings import SliceSettings
 
@@ -68,6 +69,11 @@ def layer_schedule(
     """
     n = layer_count(height, settings)
     init, th = settings.initial_layer_height, settings.layer_height
+    check_layer_count(
+        n, settings.max_layers,
+        f"an object {height} µm tall at layer_height {th} µm",
+        "SliceSettings(max_layers={n})",
+    )
     idx = np.arange(n, dtype=np.int64)
     mode = settings.slicing_tolerance
     if mode == "middle":
@@ -91,7 +97,8 @@ def layer_heights(
     """Slice heights for ``mesh`` following CuraEngine's schedule.
 
     The schedule is measured from the mesh's lowest point, as if it rested on the
-    bed (``h = max z - min z``).
+    bed (``h = max z - min z``). It is uniform, or CuraEngine's adaptive schedule
+    when ``settings.adaptive_layers`` is true.
 
     Parameters
     ----------
@@ -111,9 +118,45 @@ def layer_heights(
 
     Notes
     -----
-    For a mesh resting on z = 0 this is exactly CuraEngine's schedule. 'middle'
-    cuts each layer at its middle; 'inclusive' and 'exclusive' cut at its bottom and
-    are post-processed with the next layer when parts are made.
+    For a mesh resting on z = 0 this is exactly CuraEngine's schedule. Uniform
+    layers: 'middle' cuts each layer at its middle; 'inclusive' and 'exclusive'
+    cut at its bottom and are post-processed with the next layer when parts are
+    made.
+
+    Adaptive layers (:func:`vecslice.adaptive.adaptive_layer_heights`) are thin
+    where the surface is shallow and thick where it is steep: each layer takes the
+    thickest of ``layer_height ± adaptive_variation`` (in steps of
+    ``adaptive_variation_step``) whose stair-step width ``thickness /
+    tan(slope)`` on the shallowest face it meets stays within
+    ``adaptive_threshold``. As in CuraEngine, bit for bit:
+
+    * layer 0 is always ``initial_layer_height`` thick, whatever the mesh, and
+      the next layers are forced to thin from it by up to two steps per layer;
+    * a layer is at most one step thicker than the one below it, so thick layers
+      come back gradually after a shallow region, and a short shallow feature may
+      be passed before the layers have thinned;
+    * every layer is cut at its **top** (``slice_z == print_z`` relative to the
+      lowest point), in every slicing tolerance; 'middle' only makes each layer
+      look at the lower half of its height, and 'inclusive'/'exclusive' still
+      union/intersect each layer with the next one;
+    * horizontal faces never thin a layer, and only the shallowest face in a
+      layer counts (however small);
+    * the last layer ends above the model (also when a layer ends exactly at the
+      top), so its slice is empty; there are always at least two layers.
+
+    Examples
+    --------
+    A cone 2 mm tall, 10 mm wide (slope about 22 degrees): after layer 0 the layers
+    thin by two steps each until 80 µm layers keep the stair-steps within 0.2 mm;
+    the last layer ends above the tip at 2 mm:
+
+    >>> import trimesh, vecslice as vs
+    >>> cone = vs.load_mesh(trimesh.creation.cone(5, 2, sections=16))
+    >>> z, p, t = layer_heights(cone, vs.SliceSettings(adaptive_layers=True))
+    >>> t.tolist()
+    [300, 200, 180, 160, 140, 120, 100, 80, 80, 80, 80, 80, 80, 80, 80, 80, 80, 80]
+    >>> p[-2:].tolist(), (z - p).tolist() == [cone.zrange[0]] * len(z)
+    ([2000, 2080], True)
     """
     if settings is None:
         settings = SliceSettings()
@@ -127,6 +170,8 @@ def layer_heights(
         raise InputTypeError(
             f"`mesh` must be a vecslice.Mesh; got {type(mesh).__name__}"
         )
+    if settings.adaptive_layers:
+        return adaptive_layer_heights(mesh, settings)
     zmin = int(verts[:, 2].min())
     zmax = int(verts[:, 2].max())
     z, print_z, thickness = layer_schedule(zmax - zmin, settings)

@@ -64,8 +64,10 @@ _READ_ERRORS: tuple[type[BaseException], ...] = (
 
 
 def _freeze(a: NDArray[np.int64]) -> NDArray[np.int64]:
-    a.flags.writeable = False
-    return a
+    """``a`` immutable (no copy): one rule for every container, see ragged.freeze."""
+    from vecslice.ragged import freeze
+
+    return freeze(a)
 
 
 def _as_vertices(value: ArrayLike) -> NDArray[np.int64]:

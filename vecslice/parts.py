@@ -1,6 +1,7 @@
 """Layer parts: union each layer's loops and split it into outline + holes.
 
-This is the only module that imports manifold3d. Rings go to manifold3d's
+This is the only module that uses manifold3d (imported inside the functions that
+call it, so ``import vecslice`` does not load it). Rings go to manifold3d's
 ``CrossSection`` (Clipper2 inside) as float64 arrays, which are exact for integers
 below ``2**30``; results come back through one ``np.concatenate`` and are rounded
 to int64 µm once. Everything after the manifold3d calls (orientation, degenerate
@@ -10,120 +11,28 @@ rings, ordering) is whole-array numpy over all layers at once.
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
-import manifold3d
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from vecslice._kernels.rings import ring_area2
-from vecslice._validate import as_coords, as_offsets, check_option
+from vecslice._validate import check_bool, check_option
 from vecslice.errors import InputTypeError, InputValueError
+from vecslice.interop import to_shapely as to_shapely  # moved; re-exported
+from vecslice.layerparts import LayerParts as LayerParts  # moved; re-exported
 from vecslice.paths import LayerPaths
+from vecslice.ragged import offsets_from_lengths as _offsets
+from vecslice.ragged import ragged_take
 
-__all__ = ["LayerParts", "apply_slicing_tolerance", "make_parts", "to_shapely"]
+if TYPE_CHECKING:
+    import manifold3d
 
+__all__ = ["apply_slicing_tolerance", "make_parts"]
+
+_BATCH_LAYERS = 1024  # layers per manifold3d batch (see _batches)
 _MAX_PAIRS = 10_000_000  # (hole, outline) box tests before falling back to decompose
 _KEY_SHIFT = np.int64(2**31)  # |y| < 2**30, so x * 2**31 + y orders like (x, y)
-
-
-@dataclass(frozen=True, slots=True, eq=False)
-class LayerParts:
-    """Layers split into parts (CuraEngine's LayerParts), with nested offsets.
-
-    Attributes
-    ----------
-    coords : ndarray of shape (N, 2), int64
-        All vertices in µm.
-    ring_offsets : ndarray of shape (R + 1,), int64
-        Ring starts in ``coords``.
-    part_offsets : ndarray of shape (P + 1,), int64
-        Part starts in the rings. The first ring of a part is its outline (CCW,
-        ``ring_area2 > 0``); the others are its holes (CW, ``ring_area2 < 0``).
-    layer_offsets : ndarray of shape (L + 1,), int64
-        Layer starts in the parts.
-
-    Examples
-    --------
-    >>> sq = [[0, 0], [10, 0], [10, 10], [0, 10]]
-    >>> p = LayerParts(sq, [0, 4], [0, 1], [0, 0, 1])
-    >>> p.n_layers, p.n_parts, p.part(1, 0)[0].tolist()
-    (2, 1, [[0, 0], [10, 0], [10, 10], [0, 10]])
-
-    In plain Python, ring ``r`` of part ``j`` of layer ``k`` is::
-
-        q = layer_offsets[k] + j
-        r_abs = part_offsets[q] + r
-        coords[ring_offsets[r_abs]:ring_offsets[r_abs + 1]]
-    """
-
-    coords: NDArray[np.int64]
-    ring_offsets: NDArray[np.int64]
-    part_offsets: NDArray[np.int64]
-    layer_offsets: NDArray[np.int64]
-
-    def __init__(
-        self,
-        coords: ArrayLike,
-        ring_offsets: ArrayLike,
-        part_offsets: ArrayLike,
-        layer_offsets: ArrayLike,
-    ) -> None:
-        c = as_coords(coords, "coords")
-        r = as_offsets(ring_offsets, c.shape[0], "ring_offsets")
-        p = as_offsets(part_offsets, r.shape[0] - 1, "part_offsets")
-        lo = as_offsets(layer_offsets, p.shape[0] - 1, "layer_offsets")
-        arrays = []
-        for new, old in ((c, coords), (r, ring_offsets), (p, part_offsets),
-                         (lo, layer_offsets)):
-            new = new.copy() if new is old else new
-            new.flags.writeable = False
-            arrays.append(new)
-        for name, a in zip(LayerParts.__slots__, arrays, strict=True):
-            object.__setattr__(self, name, a)
-
-    @classmethod
-    def _trusted(cls, *arrays: NDArray[np.int64]) -> LayerParts:
-        """Wrap freshly computed, valid (coords, ring, part, layer offsets)."""
-        self = object.__new__(cls)
-        for name, a in zip(cls.__slots__, arrays, strict=True):
-            a.flags.writeable = False
-            object.__setattr__(self, name, a)
-        return self
-
-    @property
-    def n_layers(self) -> int:
-        """Number of layers ``L``."""
-        return int(self.layer_offsets.shape[0] - 1)
-
-    @property
-    def n_parts(self) -> int:
-        """Number of parts ``P`` over all layers."""
-        return int(self.part_offsets.shape[0] - 1)
-
-    def part(self, k: int, j: int) -> tuple[NDArray[np.int64], list[NDArray[np.int64]]]:
-        """Part ``j`` of layer ``k`` as ``(outline, [holes])`` read-only views."""
-        n = self.n_layers
-        if not -n <= k < n:
-            raise InputValueError(f"`k` must be a layer index in [-{n}, {n}); got {k}")
-        k %= n
-        n_parts = int(self.layer_offsets[k + 1] - self.layer_offsets[k])
-        if not 0 <= j < n_parts:
-            raise InputValueError(
-                f"`j` must be a part index of layer {k} in [0, {n_parts}); got {j}"
-            )
-        q = int(self.layer_offsets[k]) + j
-        ro = self.ring_offsets
-        rings = [self.coords[ro[i] : ro[i + 1]]
-                 for i in range(self.part_offsets[q], self.part_offsets[q + 1])]
-        return rings[0], rings[1:]
-
-    def __repr__(self) -> str:
-        return (
-            f"LayerParts({self.n_layers} layers, {self.n_parts} parts, "
-            f"{self.ring_offsets.shape[0] - 1} rings, {self.coords.shape[0]} vertices)"
-        )
 
 
 def _check_loops(loops: Any) -> LayerPaths:
@@ -135,20 +44,38 @@ def _check_loops(loops: Any) -> LayerPaths:
     return loops
 
 
-def _cross_sections(
-    loops: LayerPaths, fillrule: manifold3d.FillRule
-) -> list[manifold3d.CrossSection]:
-    """One CrossSection per layer: all its rings with ``fillrule``.
+def _batches(n_layers: int) -> list[tuple[int, int]]:
+    """Layer ranges ``[k0, k1)`` handed to manifold3d together.
 
-    One float64 conversion for all vertices; rings are views sliced from it
-    (plain slicing: ``np.split`` costs several µs of overhead per ring).
+    manifold3d needs Python objects per layer (a CrossSection, its polygons); in
+    batches, only one batch's objects are alive at a time, so memory per layer
+    is that of the arrays only, however many layers there are.
     """
-    f = loops.coords.astype(np.float64)
-    ro = loops.ring_offsets.tolist()
-    rings = [f[a:b] for a, b in itertools.pairwise(ro)]
-    lo = loops.layer_offsets.tolist()
+    return [(k, min(k + _BATCH_LAYERS, n_layers))
+            for k in range(0, n_layers, _BATCH_LAYERS)]
+
+
+def _cross_sections(
+    loops: LayerPaths,
+    fillrule: manifold3d.FillRule,
+    k0: int = 0,
+    k1: int | None = None,
+) -> list[manifold3d.CrossSection]:
+    """One CrossSection per layer ``k0 <= k < k1`` (default all): its rings.
+
+    One float64 conversion for the vertices of these layers; rings are views
+    sliced from it (plain slicing: ``np.split`` costs several µs per ring).
+    """
+    import manifold3d
+
+    k1 = loops.n_layers if k1 is None else k1
+    lo = loops.layer_offsets[k0 : k1 + 1].tolist()
+    ro = loops.ring_offsets[lo[0] : lo[-1] + 1]
+    f = loops.coords[ro[0] : ro[-1]].astype(np.float64)
+    rings = [f[a:b] for a, b in itertools.pairwise((ro - ro[0]).tolist())]
     cs = manifold3d.CrossSection
-    return [cs(rings[lo[k] : lo[k + 1]], fillrule) for k in range(len(lo) - 1)]
+    return [cs(rings[lo[k] - lo[0] : lo[k + 1] - lo[0]], fillrule)
+            for k in range(k1 - k0)]
 
 
 def _gather(polys: list[Any]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -159,10 +86,22 @@ def _gather(polys: list[Any]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     return np.concatenate(polys), lens
 
 
-def _offsets(lens: NDArray[np.int64]) -> NDArray[np.int64]:
-    out = np.zeros(lens.shape[0] + 1, dtype=np.int64)
-    np.cumsum(lens, out=out[1:])
-    return out
+def _polygons(
+    sections: list[Any],
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
+    """Float coords, ring lengths and (batch-local) layer of every output ring."""
+    polys = [cs.to_polygons() for cs in sections]
+    f, lens = _gather([p for layer_polys in polys for p in layer_polys])
+    layer = np.repeat(np.arange(len(polys), dtype=np.int64),
+                      np.fromiter(map(len, polys), np.int64, len(polys)))
+    return f, lens, layer
+
+
+def _concat(pieces: list[tuple[NDArray[Any], ...]]) -> list[NDArray[Any]]:
+    """Concatenate the per-batch arrays field by field (no copy for one batch)."""
+    if len(pieces) == 1:
+        return list(pieces[0])
+    return [np.concatenate(field) for field in zip(*pieces, strict=True)]
 
 
 def _vertex_keys(coords: NDArray[np.int64]) -> NDArray[np.int64]:
@@ -256,39 +195,13 @@ def _take_rings(
     np.subtract(src, ln, out=src, where=src >= ln)
     fl = np.flatnonzero(flip[order])
     if fl.size:  # reversed rings: position (shift - local) mod len
-        fo, idx = _ragged_ranges(new_offsets, fl)
+        fo, idx = ragged_take(new_offsets, fl)
         local = idx - np.repeat(new_offsets[fl], np.diff(fo))
         src[idx] = (np.repeat(sh[fl], np.diff(fo)) - local) % np.repeat(
             lens[fl], np.diff(fo)
         )
     src += np.repeat(offsets[:-1][order], lens)
     return np.take(coords, src, axis=0), new_offsets
-
-
-def _ragged_ranges(
-    offsets: NDArray[np.int64], sel: NDArray[np.int64]
-) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Offsets and flat indices of elements ``sel`` of a ragged level."""
-    lens = offsets[sel + 1] - offsets[sel]
-    out = _offsets(lens)
-    idx = np.arange(out[-1], dtype=np.int64)
-    idx += np.repeat(offsets[sel] - out[:-1], lens)
-    return out, idx
-
-
-def _close_rings(
-    coords: NDArray[np.int64], offsets: NDArray[np.int64]
-) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Rings ``offsets[i]:offsets[i + 1]`` with their first vertex repeated.
-
-    GeoArrow/shapely layout; the returned offsets start at 0.
-    """
-    lens = np.diff(offsets)
-    new_offsets = _offsets(lens + 1)
-    local = np.arange(new_offsets[-1], dtype=np.int64)
-    local -= np.repeat(new_offsets[:-1], lens + 1)
-    local %= np.maximum(np.repeat(lens, lens + 1), 1)
-    return coords[local + np.repeat(offsets[:-1], lens + 1)], new_offsets
 
 
 def _assemble(
@@ -432,17 +345,40 @@ def make_parts(
     >>> parts.n_parts, ring_area2(parts.coords, parts.ring_offsets).tolist()
     (1, [1800, -200])
     """
+    import manifold3d
+
     loops = _check_loops(loops)
+    union_overlapping_volumes = check_bool(
+        union_overlapping_volumes, "union_overlapping_volumes"
+    )
     rule = (manifold3d.FillRule.NonZero if union_overlapping_volumes
             else manifold3d.FillRule.EvenOdd)
-    n_layers = loops.n_layers
-    sections = _cross_sections(loops, rule)
-    polys = [cs.to_polygons() for cs in sections]
-    f, lens = _gather([p for layer_polys in polys for p in layer_polys])
-    layer = np.repeat(np.arange(n_layers, dtype=np.int64),
-                      np.fromiter(map(len, polys), np.int64, n_layers))
+    pieces, n_ids = [], 0
+    for k0, k1 in _batches(loops.n_layers) or [(0, 0)]:
+        f, lens, layer, pid, area_f, n = _union_batch(loops, rule, k0, k1)
+        pieces.append((f, lens, layer + k0, pid + n_ids, area_f))
+        n_ids += n
+    f, lens, layer, pid, area_f = _concat(pieces)
+    del pieces  # memory: the batches are concatenated
+    coords = np.rint(f, out=f).astype(np.int64)
+    del f
+    return _assemble(coords, lens, layer, pid, area_f, loops.n_layers)
+
+
+def _union_batch(
+    loops: LayerPaths, rule: manifold3d.FillRule, k0: int, k1: int
+) -> tuple[Any, ...]:
+    """Union layers ``k0 <= k < k1``: rings labelled by local layer and part.
+
+    Returns ``(f, lens, layer, pid, area_f, n_ids)``: float coords, ring lengths,
+    layer (counted from ``k0``), part id (< ``n_ids``) and float signed area.
+    """
+    n_layers = k1 - k0
+    sections = _cross_sections(loops, rule, k0, k1)
+    f, lens, layer = _polygons(sections)
     area_f = _signed_area(f, lens)
     pid, unresolved = _label_parts(f, lens, layer, area_f, n_layers)
+    n_ids = lens.shape[0]
     if unresolved.size:  # islands in holes: let manifold3d nest these layers
         parts = [(k, q) for k in unresolved.tolist() for q in sections[k].decompose()]
         part_polys = [q.to_polygons() for _, q in parts]
@@ -458,8 +394,8 @@ def make_parts(
         ])
         area_f = np.concatenate([area_f[keep], _signed_area(f2, lens2)])
         lens = np.concatenate([lens[keep], lens2])
-    coords = np.rint(f).astype(np.int64)
-    return _assemble(coords, lens, layer, pid, area_f, n_layers)
+        n_ids += len(parts)
+    return f, lens, layer, pid, area_f, n_ids
 
 
 def apply_slicing_tolerance(
@@ -494,21 +430,26 @@ def apply_slicing_tolerance(
     >>> apply_slicing_tolerance(loops, "exclusive").layer_area2().tolist()
     [200, 0]
     """
+    import manifold3d
+
     loops = _check_loops(loops)
     check_option(mode, ("middle", "inclusive", "exclusive"), "mode")
     if mode == "middle" or loops.n_layers == 0:
         return loops
-    if mode == "inclusive":
-        s = _cross_sections(loops, manifold3d.FillRule.NonZero)
-        out = [a + b for a, b in itertools.pairwise(s)] + [s[-1]]
-    else:
-        s = _cross_sections(loops, manifold3d.FillRule.EvenOdd)
-        out = [a ^ b for a, b in itertools.pairwise(s)]
-        out.append(manifold3d.CrossSection())
-    polys = [cs.to_polygons() for cs in out]
-    f, lens = _gather([p for layer_polys in polys for p in layer_polys])
-    layer = np.repeat(np.arange(len(polys), dtype=np.int64),
-                      np.fromiter(map(len, polys), np.int64, len(polys)))
+    n = loops.n_layers
+    pieces = []
+    for k0, k1 in _batches(n):  # layer k needs raw layer k + 1 too
+        if mode == "inclusive":
+            s = _cross_sections(loops, manifold3d.FillRule.NonZero, k0, min(k1 + 1, n))
+            out = [a + b for a, b in itertools.pairwise(s)]
+            top = s[-1]
+        else:
+            s = _cross_sections(loops, manifold3d.FillRule.EvenOdd, k0, min(k1 + 1, n))
+            out = [a ^ b for a, b in itertools.pairwise(s)]
+            top = manifold3d.CrossSection()
+        f, lens, layer = _polygons([*out, top] if k1 == n else out)
+        pieces.append((f, lens, layer + k0))
+    f, lens, layer = _concat(pieces)
     area_f = _signed_area(f, lens)
     coords = np.rint(f).astype(np.int64)
     coords, _, lens = _dedupe(coords, _vertex_keys(coords), lens)
@@ -519,56 +460,8 @@ def apply_slicing_tolerance(
     coords, ring_offsets = _take_rings(
         coords, offsets, order, np.zeros_like(lens), flip
     )
-    layer_offsets = _offsets(np.bincount(layer[order], minlength=len(polys)))
+    layer_offsets = _offsets(np.bincount(layer[order], minlength=n))
     return LayerPaths._trusted(coords, ring_offsets, layer_offsets, loops.open)
-
-
-def to_shapely(parts: Any, k: int, *, scale: float = 1e-3) -> Any:
-    """Layer ``k`` of a parts container as a shapely MultiPolygon.
-
-    Parameters
-    ----------
-    parts : LayerParts or SlicedModel
-        Anything with ``coords``, ``ring_offsets``, ``part_offsets`` and
-        ``layer_offsets``.
-    k : int
-        Layer index (negative counts from the end).
-    scale : float, default 1e-3
-        Factor from µm to the output unit (default: millimetres).
-
-    Returns
-    -------
-    shapely.MultiPolygon
-        One polygon per part, rings closed as shapely requires.
-
-    Examples
-    --------
-    >>> p = LayerParts([[0, 0], [1000, 0], [0, 1000]], [0, 3], [0, 1], [0, 1])
-    >>> to_shapely(p, 0).area
-    0.5
-    """
-    try:
-        import shapely
-    except ImportError:
-        raise ImportError(
-            "shapely is required for to_shapely(); pip install shapely"
-        ) from None
-    n_layers = parts.layer_offsets.shape[0] - 1
-    if not isinstance(k, (int, np.integer)) or not -n_layers <= k < n_layers:
-        raise InputValueError(
-            f"`k` must be a layer index in [-{n_layers}, {n_layers}); got {k!r}"
-        )
-    k = int(k) % n_layers
-    q0, q1 = (int(x) for x in parts.layer_offsets[k : k + 2])
-    part_offsets = parts.part_offsets[q0 : q1 + 1]
-    r0, r1 = int(part_offsets[0]), int(part_offsets[-1])
-    offsets = parts.ring_offsets[r0 : r1 + 1]
-    closed, ring_offsets = _close_rings(parts.coords, offsets)
-    return shapely.from_ragged_array(
-        shapely.GeometryType.MULTIPOLYGON,
-        closed * scale,
-        (ring_offsets, part_offsets - r0, np.array([0, q1 - q0], dtype=np.int64)),
-    )[0]
 
 
 def layer_xor_areas(a: LayerPaths, b: LayerPaths) -> NDArray[np.float64]:
@@ -584,6 +477,8 @@ def layer_xor_areas(a: LayerPaths, b: LayerPaths) -> NDArray[np.float64]:
     >>> layer_xor_areas(a, b).tolist()
     [100.0]
     """
+    import manifold3d
+
     a, b = _check_loops(a), _check_loops(b)
     if a.n_layers != b.n_layers:
         raise InputValueError(

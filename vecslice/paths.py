@@ -2,24 +2,29 @@
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vecslice._kernels.rings import ring_area2
-from vecslice._validate import as_coords, as_offsets
+from vecslice._validate import as_coords, check_int
+from vecslice.errors import InputTypeError, LayoutError
+from vecslice.ragged import (
+    RaggedContainer,
+    adopt,
+    check_index,
+    nested_offsets,
+    offsets_from_lengths,
+)
 
 __all__ = ["LayerPaths", "Paths"]
 
 
-def _freeze(*arrays: NDArray[np.int64]) -> None:
-    for a in arrays:
-        a.flags.writeable = False
-
-
 @dataclass(frozen=True, slots=True, eq=False)
-class Paths:
+class Paths(RaggedContainer):
     """Rings or polylines in one flat buffer.
 
     Ring ``i`` is ``coords[ring_offsets[i]:ring_offsets[i + 1]]``; closed rings do not
@@ -43,27 +48,51 @@ class Paths:
     ring_offsets: NDArray[np.int64]
 
     def __init__(self, coords: ArrayLike, ring_offsets: ArrayLike) -> None:
-        c = as_coords(coords, "coords")
-        o = as_offsets(ring_offsets, c.shape[0], "ring_offsets")
-        if c is coords:
-            c = c.copy()
-        if o is ring_offsets:
-            o = o.copy()
-        _freeze(c, o)
-        object.__setattr__(self, "coords", c)
-        object.__setattr__(self, "ring_offsets", o)
+        c, o = nested_offsets(coords, [("ring_offsets", ring_offsets)])
+        self._set_fields({"coords": adopt(c, coords),
+                          "ring_offsets": adopt(o, ring_offsets)})
 
     @classmethod
-    def from_rings(cls, rings: list[ArrayLike]) -> Paths:
-        """Build from a list of (n, 2) integer arrays."""
-        arrs = [np.asarray(r).reshape(-1, 2) for r in rings]
-        lens = np.array([len(r) for r in arrs], dtype=np.int64)
-        offsets = np.zeros(len(arrs) + 1, dtype=np.int64)
-        np.cumsum(lens, out=offsets[1:])
+    def from_rings(cls, rings: Iterable[ArrayLike]) -> Paths:
+        """Build from a sequence of rings, each an (n, 2) array of integer µm.
+
+        Parameters
+        ----------
+        rings : iterable of array_like of shape (n, 2), int
+            The rings in order; an empty ring may be ``[]``.
+
+        Returns
+        -------
+        Paths
+
+        Raises
+        ------
+        InputTypeError
+            If ``rings`` is not an iterable of arrays, or a ring is not integer.
+        InputValueError
+            If a ring does not have shape (n, 2) or a value reaches ``2**30`` µm;
+            the message names the ring (``rings[i]``).
+
+        Examples
+        --------
+        >>> Paths.from_rings([[[0, 0], [4, 0], [0, 4]], []]).ring_lengths().tolist()
+        [3, 0]
+        """
+        if isinstance(rings, (str, bytes, dict)) or not isinstance(rings, Iterable):
+            raise InputTypeError(
+                "`rings` must be a sequence of (n, 2) integer arrays; got "
+                f"{type(rings).__name__}"
+            )
+        arrs = []
+        for i, ring in enumerate(rings):
+            if isinstance(ring, (list, tuple)) and len(ring) == 0:
+                ring = np.empty((0, 2), np.int64)
+            arrs.append(as_coords(ring, f"rings[{i}]"))
+        offsets = offsets_from_lengths(np.array([len(r) for r in arrs], np.int64))
         coords = (
             np.concatenate(arrs) if arrs else np.empty((0, 2), dtype=np.int64)
         )
-        return cls(coords, offsets)
+        return cls._trusted(coords, offsets)
 
     def __len__(self) -> int:
         return int(self.ring_offsets.shape[0] - 1)
@@ -74,12 +103,24 @@ class Paths:
         return len(self)
 
     def ring(self, i: int) -> NDArray[np.int64]:
-        """Vertices of ring ``i`` as a read-only (n, 2) view."""
+        """Vertices of ring ``i`` as a read-only (n, 2) view.
+
+        Negative ``i`` counts from the end (``-1`` is the last ring).
+
+        Raises
+        ------
+        InputTypeError
+            If ``i`` is not an integer.
+        InputIndexError
+            If ``i`` is not in ``[-R, R)`` (also an ``IndexError``).
+        """
+        i = check_index(i, len(self), "i", "ring index")
         return self.coords[self.ring_offsets[i] : self.ring_offsets[i + 1]]
 
     def rings(self) -> list[NDArray[np.int64]]:
         """All rings as a list of (n, 2) views."""
-        return [self.ring(i) for i in range(len(self))]
+        ro = self.ring_offsets.tolist()
+        return [self.coords[a:b] for a, b in itertools.pairwise(ro)]
 
     def ring_lengths(self) -> NDArray[np.int64]:
         """Vertex count of each ring, shape (R,)."""
@@ -89,17 +130,12 @@ class Paths:
         """Twice the signed area of each ring in µm² (exact; CCW > 0)."""
         return ring_area2(self.coords, self.ring_offsets)
 
-    @property
-    def nbytes(self) -> int:
-        """Bytes held by the arrays."""
-        return int(self.coords.nbytes + self.ring_offsets.nbytes)
-
     def __repr__(self) -> str:
         return f"Paths({len(self)} rings, {self.coords.shape[0]} vertices)"
 
 
 @dataclass(frozen=True, slots=True, eq=False)
-class LayerPaths:
+class LayerPaths(RaggedContainer):
     """Rings grouped by layer.
 
     Layer ``k`` holds rings ``layer_offsets[k]:layer_offsets[k + 1]``; ring ``i`` is
@@ -136,43 +172,28 @@ class LayerPaths:
         layer_offsets: ArrayLike,
         open: LayerPaths | None = None,
     ) -> None:
-        c = as_coords(coords, "coords")
-        r = as_offsets(ring_offsets, c.shape[0], "ring_offsets")
-        lo = as_offsets(layer_offsets, r.shape[0] - 1, "layer_offsets")
-        c, r, lo = (x.copy() if x is y else x for x, y in
-                    ((c, coords), (r, ring_offsets), (lo, layer_offsets)))
-        _freeze(c, r, lo)
+        c, r, lo = nested_offsets(
+            coords, [("ring_offsets", ring_offsets), ("layer_offsets", layer_offsets)]
+        )
+        if open is not None and not isinstance(open, LayerPaths):
+            raise InputTypeError(
+                f"`open` must be a vecslice.LayerPaths or None; got "
+                f"{type(open).__name__}"
+            )
         if open is not None and open.n_layers != lo.shape[0] - 1:
-            from vecslice.errors import LayoutError
-
             raise LayoutError(
                 f"`open` must have {lo.shape[0] - 1} layers; got {open.n_layers}"
             )
-        object.__setattr__(self, "coords", c)
-        object.__setattr__(self, "ring_offsets", r)
-        object.__setattr__(self, "layer_offsets", lo)
-        object.__setattr__(self, "open", open)
-
-    @classmethod
-    def _trusted(
-        cls,
-        coords: NDArray[np.int64],
-        ring_offsets: NDArray[np.int64],
-        layer_offsets: NDArray[np.int64],
-        open: LayerPaths | None = None,
-    ) -> LayerPaths:
-        """Wrap arrays that a kernel produced, already valid: no checks, no copies."""
-        self = object.__new__(cls)
-        _freeze(coords, ring_offsets, layer_offsets)
-        object.__setattr__(self, "coords", coords)
-        object.__setattr__(self, "ring_offsets", ring_offsets)
-        object.__setattr__(self, "layer_offsets", layer_offsets)
-        object.__setattr__(self, "open", open)
-        return self
+        self._set_fields({
+            "coords": adopt(c, coords), "ring_offsets": adopt(r, ring_offsets),
+            "layer_offsets": adopt(lo, layer_offsets), "open": open,
+        })
 
     @classmethod
     def empty(cls, n_layers: int) -> LayerPaths:
-        """A LayerPaths with ``n_layers`` empty layers."""
+        """A LayerPaths with ``n_layers`` (an int >= 0) empty layers."""
+        n_layers = check_int(n_layers, "n_layers", minimum=0, setting=False,
+                             what="an integer number of layers")
         return cls(
             np.empty((0, 2), np.int64), np.zeros(1, np.int64),
             np.zeros(n_layers + 1, np.int64),
@@ -192,21 +213,25 @@ class LayerPaths:
         return self.n_layers
 
     def layer(self, k: int) -> list[NDArray[np.int64]]:
-        """Rings of layer ``k`` as a list of read-only (n, 2) views."""
-        if not -self.n_layers <= k < self.n_layers:
-            from vecslice.errors import InputValueError
+        """Rings of layer ``k`` as a list of read-only (n, 2) views.
 
-            raise InputValueError(
-                f"`k` must be a layer index in [0, {self.n_layers}); got {k}"
-            )
-        k %= self.n_layers
+        Negative ``k`` counts from the end (``-1`` is the last layer).
+
+        Raises
+        ------
+        InputTypeError
+            If ``k`` is not an integer.
+        InputIndexError
+            If ``k`` is not in ``[-L, L)`` (also an ``IndexError``).
+        """
+        k = check_index(k, self.n_layers, "k", "layer index")
         r0, r1 = self.layer_offsets[k], self.layer_offsets[k + 1]
         ro = self.ring_offsets
         return [self.coords[ro[i] : ro[i + 1]] for i in range(r0, r1)]
 
     def paths(self) -> Paths:
         """All rings of all layers as one :class:`Paths` (layers flattened)."""
-        return Paths(self.coords, self.ring_offsets)
+        return Paths._trusted(self.coords, self.ring_offsets)
 
     def rings_per_layer(self) -> NDArray[np.int64]:
         """Number of rings in each layer, shape (L,)."""
@@ -226,12 +251,6 @@ class LayerPaths:
         out = np.zeros(self.n_layers, dtype=np.int64)
         np.add.at(out, self.ring_layer(), self.area2())
         return out
-
-    @property
-    def nbytes(self) -> int:
-        """Bytes held by the arrays, open chains included."""
-        own = self.coords.nbytes + self.ring_offsets.nbytes + self.layer_offsets.nbytes
-        return int(own + (self.open.nbytes if self.open is not None else 0))
 
     def __repr__(self) -> str:
         n_open = self.open.n_rings if self.open is not None else 0

@@ -19,6 +19,7 @@ from vecslice._kernels.simplify import (
     ring_perimeters,
     simplify_rings,
 )
+from vecslice._validate import check_bool
 from vecslice.errors import InputTypeError
 from vecslice.layers import layer_heights
 from vecslice.parts import apply_slicing_tolerance, make_parts
@@ -200,6 +201,11 @@ def slice_mesh(
             "`settings` must be a vecslice.SliceSettings; "
             f"got {type(settings).__name__}"
         )
+    progress = check_bool(progress, "progress")
+    if times is not None and not isinstance(times, StageTimes):
+        raise InputTypeError(
+            f"`times` must be a vecslice.StageTimes or None; got {type(times).__name__}"
+        )
     if settings.compat == "cura":
         from vecslice.cura_pipeline import slice_mesh_cura
 
@@ -207,12 +213,14 @@ def slice_mesh(
     st = _Stages(_STAGES, progress)
     try:
         slice_z, print_z, thickness = st.run("layers", layer_heights, mesh, settings)
-        raw = st.run("contours", slice_contours, mesh, slice_z, stitch=False)
+        raw = st.run("contours", slice_contours, mesh, slice_z, stitch=False,
+                     max_layers=settings.max_layers)
         raw, stitched = st.run("stitch", stitch, raw)
         open_chains = raw.open.rings_per_layer() if raw.open is not None else None
         st.times.counts["raw_vertices"] = int(raw.coords.shape[0]) + (
             int(raw.open.coords.shape[0]) if raw.open is not None else 0)
         loops = st.run("simplify", clean_loops, raw, settings)
+        del raw  # memory per layer: the raw loops are not needed any more
         loops = st.run("tolerance", apply_slicing_tolerance, loops,
                        settings.slicing_tolerance)
         parts = st.run("parts", make_parts, loops,

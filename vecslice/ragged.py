@@ -1,11 +1,184 @@
-"""Vectorised helpers for ragged (offsets, items) arrays."""
+"""Shared machinery of the ragged containers.
+
+:class:`~vecslice.Paths`, :class:`~vecslice.LayerPaths`,
+:class:`~vecslice.parts.LayerParts` and :class:`~vecslice.SlicedModel` all hold flat
+int64 buffers with nested offsets (level ``k`` element ``i`` is
+``items[offsets[i]:offsets[i + 1]]`` of the level below). This module holds what they
+share: validating nested offsets, holding arrays read-only, checking indices,
+building a container from arrays known to be valid, and whole-array ragged helpers.
+"""
 
 from __future__ import annotations
 
-import numpy as np
-from numpy.typing import NDArray
+import dataclasses
+from collections.abc import Sequence
+from typing import Any, TypeVar
 
-__all__ = ["ragged_take"]
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vecslice._validate import as_coords, as_offsets
+from vecslice.errors import InputIndexError, InputTypeError
+
+__all__ = [
+    "RaggedContainer",
+    "adopt",
+    "check_index",
+    "freeze",
+    "is_frozen",
+    "nested_offsets",
+    "offsets_from_lengths",
+    "ragged_take",
+]
+
+C = TypeVar("C", bound="RaggedContainer")
+
+
+class _ReadOnlyBase:
+    """The private base of a frozen array: exports its data read-only, nothing else.
+
+    numpy lets ``flags.writeable`` be set back to True on an array that owns its
+    data or whose base exports a writeable buffer. A frozen array is a view whose
+    base is this object: it exports the data through ``__array_interface__``
+    marked read-only and has no buffer protocol, so neither the array, nor any
+    view of it, nor ``a.base`` can be made writeable again. The array that owns
+    the memory is held only here, privately, so that it lives as long as its views.
+    """
+
+    __slots__ = ("__array_interface__", "_owner")
+
+    def __init__(self, owner: NDArray[Any]) -> None:
+        self._owner = owner
+        self.__array_interface__ = {
+            "version": 3,
+            "shape": owner.shape,
+            "typestr": owner.dtype.str,
+            "data": (owner.__array_interface__["data"][0], True),  # read-only
+            "strides": None,  # C-contiguous
+        }
+
+
+def is_frozen(a: NDArray[Any]) -> bool:
+    """True if ``a`` is a view of data frozen by :func:`freeze` (immutable)."""
+    x = a
+    while isinstance(x, np.ndarray):
+        if x.flags.writeable or x.flags.owndata:
+            return False
+        x = x.base
+    return isinstance(x, _ReadOnlyBase)
+
+
+def freeze(a: NDArray[Any]) -> NDArray[Any]:
+    """``a`` as an immutable array, without copying its data.
+
+    The caller hands ``a`` over: nothing else may write it afterwards. The result
+    is a read-only view (of the C-contiguous ``a``; made contiguous first if
+    needed) whose ``flags.writeable`` cannot be set back to True, nor that of any
+    view of it. Frozen C-contiguous arrays are returned as they are.
+
+    Examples
+    --------
+    >>> f = freeze(np.arange(3))
+    >>> f.flags.writeable = True
+    Traceback (most recent call last):
+    ...
+    ValueError: cannot set WRITEABLE flag to True of this array
+    """
+    if is_frozen(a) and a.flags.c_contiguous:
+        return a
+    owner = np.ascontiguousarray(a)
+    owner.flags.writeable = False  # catches a write through a forgotten reference
+    return np.asarray(_ReadOnlyBase(owner))
+
+
+def adopt(new: NDArray[Any], given: object) -> NDArray[Any]:
+    """``new`` (coerced from the caller's ``given``) frozen, copied if shared.
+
+    A container must not share memory that its caller can still write: ``new`` is
+    copied unless it is frozen already (immutable, so it is shared) or numpy made
+    it afresh from ``given`` (a list, or an array of another dtype or order).
+    """
+    if is_frozen(new):
+        return new
+    fresh = isinstance(given, (list, tuple)) or (
+        isinstance(given, np.ndarray) and not np.may_share_memory(new, given)
+    )
+    return freeze(new if fresh and new.flags.owndata else new.copy())
+
+
+def nested_offsets(
+    coords: ArrayLike, levels: Sequence[tuple[str, ArrayLike]]
+) -> list[NDArray[np.int64]]:
+    """Validate ``coords`` and a chain of offsets, innermost level first.
+
+    ``levels`` is ``[(name, offsets), ...]``: the first offsets index ``coords``,
+    each next one the elements of the previous. Returns the coerced arrays
+    ``[coords, offsets_0, offsets_1, ...]`` (not yet frozen).
+
+    Examples
+    --------
+    >>> c, r, lo = nested_offsets([[0, 0], [1, 0], [0, 1]],
+    ...                           [("ring_offsets", [0, 3]), ("layer_offsets", [0, 1])])
+    >>> r.tolist(), lo.tolist()
+    ([0, 3], [0, 1])
+    """
+    out = [as_coords(coords, "coords")]
+    below = out[0].shape[0]
+    for name, offsets in levels:
+        o = as_offsets(offsets, below, name)
+        out.append(o)
+        below = o.shape[0] - 1
+    return out
+
+
+def check_index(value: object, n: int, name: str, what: str) -> int:
+    """Return ``value`` as an index in ``range(n)``.
+
+    Negative indices count from the end, as for Python sequences: ``-1`` is the
+    last element; ``-n <= value < n`` is valid. ``what`` names the index in
+    messages (e.g. ``"layer index"``).
+
+    Raises
+    ------
+    InputTypeError
+        If ``value`` is not an integer (floats, strings and bools are refused).
+    InputIndexError
+        If ``value`` is out of range (also an ``IndexError``).
+
+    Examples
+    --------
+    >>> check_index(-1, 3, "k", "layer index")
+    2
+    >>> check_index(3, 3, "k", "layer index")
+    Traceback (most recent call last):
+    ...
+    vecslice.errors.InputIndexError: `k` must be a layer index in [-3, 3); got 3
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+        value, (int, np.integer)
+    ):
+        raise InputTypeError(
+            f"`{name}` must be an integer {what}; got {type(value).__name__} "
+            f"{value!r}"
+        )
+    if not -n <= value < n:
+        raise InputIndexError(
+            f"`{name}` must be a {what} in [{-n}, {n}); got {int(value)}"
+        )
+    return int(value) % n
+
+
+def offsets_from_lengths(lens: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Offsets ``[0, cumsum(lens)...]`` of a level whose elements have ``lens`` items.
+
+    Examples
+    --------
+    >>> offsets_from_lengths(np.array([2, 0, 3])).tolist()
+    [0, 2, 2, 5]
+    """
+    out = np.zeros(lens.shape[0] + 1, dtype=np.int64)
+    np.cumsum(lens, out=out[1:])
+    return out
 
 
 def ragged_take(
@@ -25,8 +198,58 @@ def ragged_take(
     """
     starts = offsets[idx]
     lens = offsets[idx + 1] - starts
-    new_offsets = np.zeros(idx.shape[0] + 1, dtype=np.int64)
-    np.cumsum(lens, out=new_offsets[1:])
+    new_offsets = offsets_from_lengths(lens)
     items = np.arange(new_offsets[-1], dtype=np.int64)
     items += np.repeat(starts - new_offsets[:-1], lens)
     return new_offsets, items
+
+
+class RaggedContainer:
+    """Base of the frozen dataclasses of read-only arrays.
+
+    Subclasses are ``@dataclass(frozen=True, slots=True, eq=False)``; their fields
+    are arrays or nested containers (or ``None``).
+    """
+
+    __slots__ = ()
+
+    def _set_fields(self, values: dict[str, Any]) -> None:
+        """Store ``values`` (arrays already validated, frozen or adoptable)."""
+        for name, value in values.items():
+            object.__setattr__(self, name, value)
+
+    @classmethod
+    def _trusted(cls: type[C], *values: Any, **named: Any) -> C:
+        """Wrap arrays that vecslice just computed and knows to be valid.
+
+        No checks and no copies; the arrays are handed over and frozen. Fields not
+        given are ``None``.
+        """
+        self = object.__new__(cls)
+        names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+        given = dict(zip(names, values, strict=False)) | named
+        self._set_fields({
+            n: freeze(v) if isinstance(v, np.ndarray) else v
+            for n, v in ((n, given.get(n)) for n in names)
+        })
+        return self
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle and copy by fields; the copy's arrays are frozen again."""
+        names = [f.name for f in dataclasses.fields(self)]  # type: ignore[arg-type]
+        return (_rebuild, (type(self), {n: getattr(self, n) for n in names}))
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the arrays, nested containers included."""
+        total = 0
+        for f in dataclasses.fields(self):  # type: ignore[arg-type]
+            value = getattr(self, f.name)
+            if isinstance(value, (np.ndarray, RaggedContainer)):
+                total += value.nbytes
+        return int(total)
+
+
+def _rebuild(cls: type[C], values: dict[str, Any]) -> C:
+    """Unpickle a container: its (fresh) arrays are frozen, nothing re-validated."""
+    return cls._trusted(**values)

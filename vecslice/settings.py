@@ -6,13 +6,15 @@ from dataclasses import dataclass, fields
 from difflib import get_close_matches
 from typing import Literal
 
-from vecslice._validate import check_int, check_option
-from vecslice.errors import InputTypeError
+from vecslice._validate import check_bool, check_int, check_option
+from vecslice.errors import InputTypeError, SettingsError
 
-__all__ = ["COMPAT_MODES", "SLICING_TOLERANCES", "SliceSettings"]
+__all__ = ["COMPAT_MODES", "MAX_LAYERS", "SLICING_TOLERANCES", "SliceSettings"]
 
 SLICING_TOLERANCES = ("middle", "inclusive", "exclusive")
 COMPAT_MODES = ("vecslice", "cura")
+MAX_LAYERS = 100_000
+"""Default layer limit (``SliceSettings.max_layers``): 10 m of 0.1 mm layers."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,11 +52,32 @@ class SliceSettings:
         CuraEngine hands to its union; the union itself stays manifold3d's. The
         default ``'vecslice'`` computes one crossing per mesh edge, rounded once,
         so loops are watertight by construction.
+    max_layers : int, default 100000 (``vecslice.settings.MAX_LAYERS``)
+        Largest number of layers a slice may have, ``>= 1``. More layers raise a
+        :class:`SettingsError` before any work, naming the count: memory and time
+        grow with the layer count (100,000 layers are 10 m at 0.1 mm). Raise it
+        to slice taller objects or thinner layers.
+    adaptive_layers : bool, default False
+        Use CuraEngine's adaptive layer heights (Cura
+        ``adaptive_layer_height_enabled``) instead of the uniform schedule; see
+        :func:`vecslice.layer_heights`.
+    adaptive_variation : int, default 100
+        Adaptive layers are ``layer_height ± adaptive_variation`` µm thick (Cura
+        ``adaptive_layer_height_variation``), ``>= 0``.
+    adaptive_variation_step : int, default 10
+        Spacing of the allowed adaptive heights in µm (Cura
+        ``adaptive_layer_height_variation_step``), ``> 0``.
+    adaptive_threshold : int, default 200
+        Largest allowed stair-step width ``height / tan(slope)`` in µm (Cura
+        ``adaptive_layer_height_threshold``, "Topography Size"); ``<= 0`` makes
+        every layer on a non-flat surface the thinnest allowed.
 
     Raises
     ------
     SettingsError
-        A height is not positive, a threshold is negative or the tolerance is unknown.
+        A height is not positive, a threshold is negative, the tolerance is unknown,
+        ``max_layers`` is not positive, the adaptive step is not positive or the
+        adaptive variation leaves no allowed height.
     """
 
     layer_height: int = 100
@@ -66,6 +89,11 @@ class SliceSettings:
     minimum_polygon_circumference: int = 1000
     union_overlapping_volumes: bool = True
     compat: Literal["vecslice", "cura"] = "vecslice"
+    max_layers: int = MAX_LAYERS
+    adaptive_layers: bool = False
+    adaptive_variation: int = 100
+    adaptive_variation_step: int = 10
+    adaptive_threshold: int = 200
 
     def __init__(
         self,
@@ -79,6 +107,11 @@ class SliceSettings:
         minimum_polygon_circumference: int = 1000,
         union_overlapping_volumes: bool = True,
         compat: Literal["vecslice", "cura"] = "vecslice",
+        max_layers: int = MAX_LAYERS,
+        adaptive_layers: bool = False,
+        adaptive_variation: int = 100,
+        adaptive_variation_step: int = 10,
+        adaptive_threshold: int = 200,
         **unknown: object,
     ) -> None:
         if unknown:
@@ -109,12 +142,31 @@ class SliceSettings:
         object.__setattr__(self, "max_area_deviation", v)
         check_option(self.slicing_tolerance, SLICING_TOLERANCES, "slicing_tolerance")
         check_option(self.compat, COMPAT_MODES, "compat")
-        if not isinstance(self.union_overlapping_volumes, bool):
-            raise InputTypeError(
-                "`union_overlapping_volumes` must be a bool; got "
-                f"{type(self.union_overlapping_volumes).__name__} "
-                f"{self.union_overlapping_volumes!r}"
+        v = check_bool(self.union_overlapping_volumes, "union_overlapping_volumes")
+        object.__setattr__(self, "union_overlapping_volumes", v)
+        n = check_int(self.max_layers, "max_layers", minimum=1,
+                      what="an integer number of layers")
+        object.__setattr__(self, "max_layers", n)
+        self._check_adaptive(limit)
+
+    def _check_adaptive(self, limit: int) -> None:
+        on = check_bool(self.adaptive_layers, "adaptive_layers")
+        object.__setattr__(self, "adaptive_layers", on)
+        # ADAPTIVE.md section 1: a step <= 0 never ends CuraEngine's list of allowed
+        # heights; a negative variation leaves it empty (undefined behaviour there)
+        step = check_int(self.adaptive_variation_step, "adaptive_variation_step",
+                         minimum=1, maximum=limit)
+        v = check_int(self.adaptive_variation, "adaptive_variation", maximum=limit)
+        if v < 0:
+            raise SettingsError(
+                "`adaptive_variation` must be >= 0 (from layer_height + variation "
+                f"down to layer_height - variation no height is allowed); got {v}"
             )
+        t = check_int(self.adaptive_threshold, "adaptive_threshold",
+                      minimum=-limit, maximum=limit)
+        for name, value in (("adaptive_variation_step", step),
+                            ("adaptive_variation", v), ("adaptive_threshold", t)):
+            object.__setattr__(self, name, value)
 
     def replace(self, **changes: object) -> SliceSettings:
         """A copy with some settings changed (validated like the constructor)."""

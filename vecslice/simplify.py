@@ -30,12 +30,7 @@ _THRESHOLD_MAX = 2**31 - 1  # squares must fit int64 (CuraEngine squares them)
 
 def _trusted_paths(coords: NDArray[np.int64], offsets: NDArray[np.int64]) -> Paths:
     """Wrap kernel output (already valid) without re-validating or copying."""
-    p = object.__new__(Paths)
-    coords.flags.writeable = False
-    offsets.flags.writeable = False
-    object.__setattr__(p, "coords", coords)
-    object.__setattr__(p, "ring_offsets", offsets)
-    return p
+    return Paths._trusted(coords, offsets)
 
 
 def _drop_empty(offsets: NDArray[np.int64]) -> NDArray[np.int64]:

@@ -11,9 +11,16 @@ from vecslice._kernels.crossings import crossing_points, face_segments, range_of
 from vecslice._kernels.loops import link_segments
 from vecslice._kernels.rings import group_rings
 from vecslice._kernels.topology import edge_topology
-from vecslice._validate import as_int_array, check_coord_range
+from vecslice._validate import (
+    as_int_array,
+    check_bool,
+    check_coord_range,
+    check_int,
+    check_layer_count,
+)
 from vecslice.errors import InputTypeError
 from vecslice.paths import LayerPaths
+from vecslice.settings import MAX_LAYERS
 from vecslice.stitch import stitch as stitch_chains
 
 __all__ = ["slice_contours"]
@@ -35,8 +42,7 @@ def _check_mesh(
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     from vecslice.mesh import Mesh
 
-    if not isinstance(stitch, bool):
-        raise InputTypeError(f"`stitch` must be a bool; got {stitch!r}")
+    check_bool(stitch, "stitch")
     if not isinstance(mesh, Mesh):
         raise InputTypeError(
             f"`mesh` must be a vecslice.Mesh (see vecslice.load_mesh); "
@@ -52,7 +58,7 @@ def _check_slice_z(slice_z: ArrayLike) -> NDArray[np.int64]:
 
 
 def slice_contours(
-    mesh: Any, slice_z: ArrayLike, *, stitch: bool = True
+    mesh: Any, slice_z: ArrayLike, *, stitch: bool = True, max_layers: int = MAX_LAYERS
 ) -> LayerPaths:
     """Cut ``mesh`` at every height of ``slice_z`` into raw closed loops.
 
@@ -66,6 +72,8 @@ def slice_contours(
     stitch : bool, default True
         Join the open chains of broken meshes by CuraEngine's rules (see
         :func:`vecslice.stitch`); ``False`` returns them as the topology left them.
+    max_layers : int, default 100000 (``vecslice.settings.MAX_LAYERS``)
+        More heights than this raise a :class:`SettingsError` before any work.
 
     Returns
     -------
@@ -97,6 +105,10 @@ def slice_contours(
     """
     vertices, faces = _check_mesh(mesh, stitch)
     z = _check_slice_z(slice_z)
+    limit = check_int(max_layers, "max_layers", minimum=1,
+                      what="an integer number of layers")
+    check_layer_count(z.shape[0], limit, f"{z.shape[0]} heights in `slice_z`",
+                      "slice_contours(..., max_layers={n})")
     order = np.argsort(z, kind="stable")
     is_sorted = bool(np.all(order == np.arange(z.shape[0])))
     zs = z if is_sorted else z[order]

@@ -8,19 +8,31 @@ Open polylines of broken meshes are kept beside them with their own offsets.
 from __future__ import annotations
 
 import os
-import tempfile
-import zipfile
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._kernels.rings import ring_area2
-from vecslice._validate import as_coords, as_int_array, as_offsets
-from vecslice.errors import InputValueError, LayoutError, StorageFileError
+from vecslice._validate import as_int_array, as_offsets, check_bool, check_int
+from vecslice.errors import (
+    InputTypeError,
+    InputValueError,
+    LayoutError,
+    StorageFileError,
+)
+from vecslice.layerparts import Part, PartsLayout, check_part_rings
+from vecslice.npz import (
+    MAX_BYTES,
+    Member,
+    check_path,
+    open_archive,
+    read_array,
+    read_members,
+    write_atomic,
+)
 from vecslice.paths import LayerPaths
+from vecslice.ragged import adopt, freeze, nested_offsets
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "SlicedModel", "load_sliced"]
 
@@ -35,19 +47,22 @@ _FIELDS = (
 )
 
 
-def _freeze_copy(new: NDArray[np.int64], old: object) -> NDArray[np.int64]:
-    """``new`` made read-only; copied if it is the caller's own writeable array.
-
-    Read-only arrays that own their data (such as a LayerParts' arrays) are shared.
-    """
-    shared = new is old and (new.flags.writeable or not new.flags.owndata)
-    out = new.copy() if shared else new
-    out.flags.writeable = False
-    return out
+def _layer_offsets(
+    given: dict[str, Any], prefix: str, below: NDArray[np.int64], n: int
+) -> NDArray[np.int64]:
+    """``given[prefix + 'layer_offsets']`` checked: into ``below``, ``n + 1`` long."""
+    name = prefix + "layer_offsets"
+    lo = as_offsets(given[name], below.shape[0] - 1, name)
+    if lo.shape[0] != n + 1:
+        raise LayoutError(
+            f"`{name}` must have length {n + 1} (layers + 1, as `slice_z`); "
+            f"got {lo.shape[0]}"
+        )
+    return lo
 
 
 @dataclass(frozen=True, slots=True, eq=False)
-class SlicedModel:
+class SlicedModel(PartsLayout):
     """Layers of parts of rings, in flat int64 arrays with nested offsets.
 
     Parameters
@@ -73,8 +88,9 @@ class SlicedModel:
     Raises
     ------
     LayoutError
-        If an offsets array is invalid, a part has no ring, or the per-layer
-        arrays disagree on ``L``.
+        If an offsets array is invalid, the per-layer arrays disagree on ``L``, a
+        part has no ring, a ring fewer than 3 vertices, an outline is not CCW
+        (positive area) or a hole not CW.
 
     Examples
     --------
@@ -145,31 +161,18 @@ class SlicedModel:
                     f"`{name}` must have length {n} (one per layer, as `slice_z`); "
                     f"got {v[name].shape[0]}"
                 )
-        for prefix in ("", "open_"):
-            c = as_coords(given[prefix + "coords"], prefix + "coords")
-            r = as_offsets(given[prefix + "ring_offsets"], c.shape[0],
-                           prefix + "ring_offsets")
-            below = r.shape[0] - 1
-            if not prefix:
-                p = as_offsets(part_offsets, below, "part_offsets")
-                empty = np.flatnonzero(np.diff(p) == 0)
-                if empty.size:
-                    raise LayoutError(
-                        f"`part_offsets` must give every part >= 1 ring (its "
-                        f"outline); part {int(empty[0])} is empty"
-                    )
-                v["part_offsets"], below = p, p.shape[0] - 1
-            lo = as_offsets(given[prefix + "layer_offsets"], below,
-                            prefix + "layer_offsets")
-            if lo.shape[0] != n + 1:
-                raise LayoutError(
-                    f"`{prefix}layer_offsets` must have length {n + 1} (layers + 1, "
-                    f"as `slice_z`); got {lo.shape[0]}"
-                )
-            v[prefix + "coords"], v[prefix + "ring_offsets"] = c, r
-            v[prefix + "layer_offsets"] = lo
-        for name in _FIELDS:
-            object.__setattr__(self, name, _freeze_copy(v[name], given[name]))
+        v["coords"], v["ring_offsets"], v["part_offsets"] = nested_offsets(
+            coords, [("ring_offsets", ring_offsets), ("part_offsets", part_offsets)]
+        )
+        v["layer_offsets"] = _layer_offsets(given, "", v["part_offsets"], n)
+        check_part_rings(v["coords"], v["ring_offsets"], v["part_offsets"],
+                         v["layer_offsets"])
+        v["open_coords"], v["open_ring_offsets"] = nested_offsets(
+            given["open_coords"], [("open_ring_offsets", open_ring_offsets)]
+        )
+        v["open_layer_offsets"] = _layer_offsets(given, "open_",
+                                                 v["open_ring_offsets"], n)
+        self._set_fields({name: adopt(v[name], given[name]) for name in _FIELDS})
 
     @classmethod
     def from_parts(
@@ -212,64 +215,18 @@ class SlicedModel:
                    parts.part_offsets, parts.ring_offsets, parts.coords, **kw)
 
     @property
-    def n_layers(self) -> int:
-        """Number of layers ``L``."""
-        return int(self.slice_z.shape[0])
-
-    @property
-    def n_parts(self) -> int:
-        """Number of parts ``P`` over all layers."""
-        return int(self.part_offsets.shape[0] - 1)
-
-    @property
-    def n_rings(self) -> int:
-        """Number of rings ``R`` (outlines and holes) over all layers."""
-        return int(self.ring_offsets.shape[0] - 1)
-
-    @property
     def open(self) -> LayerPaths:
         """The open polylines as a :class:`vecslice.LayerPaths` (views, no copy)."""
         return LayerPaths._trusted(self.open_coords, self.open_ring_offsets,
                                    self.open_layer_offsets)
 
-    def _layer_index(self, i: int, name: str = "i") -> int:
-        n = self.n_layers
-        if not isinstance(i, (int, np.integer)) or not -n <= i < n:
-            raise InputValueError(f"`{name}` must be a layer index in [-{n}, {n}); "
-                                  f"got {i!r}")
-        return int(i) % n
-
-    def _part_rings(self, q: int) -> tuple[NDArray[np.int64], list[NDArray[np.int64]]]:
-        ro, c = self.ring_offsets, self.coords
-        r0, r1 = int(self.part_offsets[q]), int(self.part_offsets[q + 1])
-        return c[ro[r0] : ro[r0 + 1]], [c[ro[r] : ro[r + 1]] for r in range(r0 + 1, r1)]
-
-    def layer(self, i: int) -> list[tuple[NDArray[np.int64], list[NDArray[np.int64]]]]:
+    def layer(self, i: int) -> list[Part]:
         """Parts of layer ``i`` as ``[(outline (n, 2), [holes]), ...]`` views."""
-        i = self._layer_index(i)
-        q0, q1 = int(self.layer_offsets[i]), int(self.layer_offsets[i + 1])
-        return [self._part_rings(q) for q in range(q0, q1)]
+        return self._layer_parts(i, "i")
 
-    def part(self, i: int, j: int) -> tuple[NDArray[np.int64], list[NDArray[np.int64]]]:
+    def part(self, i: int, j: int) -> Part:
         """Part ``j`` of layer ``i`` as ``(outline (n, 2), [holes])`` views."""
-        i = self._layer_index(i)
-        q0, q1 = int(self.layer_offsets[i]), int(self.layer_offsets[i + 1])
-        if not isinstance(j, (int, np.integer)) or not -(q1 - q0) <= j < q1 - q0:
-            raise InputValueError(f"`j` must be a part index of layer {i} in "
-                                  f"[{-(q1 - q0)}, {q1 - q0}); got {j!r}")
-        return self._part_rings(q0 + int(j) % (q1 - q0))
-
-    def ring_layer(self) -> NDArray[np.int64]:
-        """Layer index of each ring, shape (R,)."""
-        part_layer = np.repeat(np.arange(self.n_layers, dtype=np.int64),
-                               np.diff(self.layer_offsets))
-        return np.repeat(part_layer, np.diff(self.part_offsets))
-
-    def layer_areas(self) -> NDArray[np.float64]:
-        """Area of each layer in µm², holes subtracted, shape (L,), float64."""
-        a2 = ring_area2(self.coords, self.ring_offsets)
-        out = np.bincount(self.ring_layer(), weights=a2, minlength=self.n_layers)
-        return out / 2.0
+        return self._part(i, j, ("i", "j"))
 
     def bounds(self) -> NDArray[np.int64] | None:
         """``[[xmin, ymin], [xmax, ymax]]`` in µm of all rings and open polylines.
@@ -281,17 +238,6 @@ class SlicedModel:
             return None
         return np.stack([c.min(axis=0), c.max(axis=0)])
 
-    @property
-    def nbytes(self) -> int:
-        """Bytes held by all arrays (coords, every offsets, per-layer values)."""
-        return int(sum(getattr(self, name).nbytes for name in _FIELDS))
-
-    def to_shapely(self, i: int) -> Any:
-        """Layer ``i`` as a shapely MultiPolygon in millimetres (needs shapely)."""
-        from vecslice.parts import to_shapely
-
-        return to_shapely(self, self._layer_index(i))
-
     def to_svg(self, i: int, **options: Any) -> str:
         """Layer ``i`` as SVG text, µm user units, mm size (see :mod:`vecslice.svg`)."""
         from vecslice.svg import layer_svg
@@ -301,35 +247,40 @@ class SlicedModel:
     def save(self, path: str | os.PathLike[str], *, compress: bool = False) -> None:
         """Write the model to ``path`` as an .npz archive (bit-exact).
 
-        The file is written to a temporary file beside ``path`` and renamed into
-        place, so a failed save leaves no partial file. ``path`` is used as given
-        (no ``.npz`` is appended). ``compress=True`` uses zip deflate.
+        The file is written to a hidden temporary file beside ``path`` and renamed
+        into place, so a failed or interrupted save (error, Ctrl-C, SIGTERM) leaves
+        no partial file. ``path`` is used as given (no ``.npz`` is appended); a
+        symbolic link is written through (the file it points to is replaced). A
+        new file gets the permissions ``0o666 & ~umask``; an overwritten file keeps
+        its mode.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file to write.
+        compress : bool, default False
+            Use zip deflate (smaller, slower).
 
         Raises
         ------
+        InputTypeError
+            If ``path`` is not a path or ``compress`` not a bool.
+        InputValueError
+            If ``path`` is empty.
         StorageFileError
-            If the file cannot be written (e.g. its directory does not exist).
+            If the file cannot be written (e.g. its directory does not exist, it is
+            a directory or a symbolic link loop).
         """
-        target = Path(os.fspath(path))
+        compress = check_bool(compress, "compress")
+        p = check_path(path)
         arrays = {name: getattr(self, name) for name in _FIELDS}
-        writer = np.savez_compressed if compress else np.savez
-        tmp = None
-        try:
-            fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp",
-                                       dir=target.parent)
-            with os.fdopen(fd, "wb") as fh:
-                writer(fh, format=np.array(FORMAT), version=np.array(FORMAT_VERSION),
-                       **arrays)
-            os.replace(tmp, target)
-            tmp = None
-        except OSError as exc:
-            raise StorageFileError(
-                f"cannot save a vecslice model to {os.fspath(path)!r}: "
-                f"{exc.strerror or exc}"
-            ) from exc
-        finally:
-            if tmp is not None and os.path.exists(tmp):
-                os.unlink(tmp)
+
+        def write(fh: Any) -> None:
+            writer = np.savez_compressed if compress else np.savez
+            writer(fh, format=np.array(FORMAT), version=np.array(FORMAT_VERSION),
+                   **arrays)
+
+        write_atomic(p, write)
 
     def __repr__(self) -> str:
         return (
@@ -340,13 +291,23 @@ class SlicedModel:
         )
 
 
-def load_sliced(path: str | os.PathLike[str]) -> SlicedModel:
+def load_sliced(
+    path: str | os.PathLike[str], *, max_bytes: int = MAX_BYTES
+) -> SlicedModel:
     """Read a model written by :meth:`SlicedModel.save` (bit-exact).
+
+    Hostile files are refused before any array is inflated: the ``.npy`` header
+    of every member is read first and its dtype, its shape against the others
+    and the member's size are checked, as well as the compression ratio and the
+    total size (``max_bytes``). The model is then validated like a constructed
+    one, including ring sizes and orientations.
 
     Parameters
     ----------
     path : str or os.PathLike
         The .npz file.
+    max_bytes : int, default 2**32 (``vecslice.npz.MAX_BYTES``, 4 GiB)
+        Largest total size of the arrays; raise it for larger models.
 
     Returns
     -------
@@ -354,10 +315,13 @@ def load_sliced(path: str | os.PathLike[str]) -> SlicedModel:
 
     Raises
     ------
+    InputTypeError, InputValueError
+        If ``path`` is not a path or empty, or ``max_bytes`` not an int >= 0.
     StorageFileError
         If ``path`` is missing, a directory, not an .npz archive, not a vecslice
-        model, of a newer format version, or holds arrays of the wrong dtype or
-        layout. The message names the path.
+        model, of a newer format version, too large, damaged, or holds arrays of
+        the wrong dtype, shape or layout (such as a clockwise outline or a ring of
+        fewer than 3 vertices). The message names the path.
 
     Examples
     --------
@@ -369,58 +333,91 @@ def load_sliced(path: str | os.PathLike[str]) -> SlicedModel:
     ...     load_sliced(os.path.join(d, "m.npz")).layer_areas().tolist()
     [50.0]
     """
-    p = os.fspath(path)
-    if not os.path.exists(p):
-        raise StorageFileError(f"{p!r} does not exist")
-    if os.path.isdir(p):
-        raise StorageFileError(f"{p!r} is a directory, not a saved vecslice model")
-    try:
-        data = np.load(p, allow_pickle=False)
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        raise StorageFileError(
-            f"{p!r} is not an .npz file written by SlicedModel.save() ({exc})"
-        ) from None
-    if not isinstance(data, np.lib.npyio.NpzFile):
-        raise StorageFileError(
-            f"{p!r} is a single .npy array, not an .npz written by SlicedModel.save()"
-        )
-    with data:
-        arrays = _read_arrays(p, data)
-    for a in arrays.values():  # fresh arrays: the model can own them without a copy
-        a.flags.writeable = False
-    try:
+    p = check_path(path)
+    max_bytes = check_int(max_bytes, "max_bytes", minimum=0, setting=False,
+                          what="an integer number of bytes")
+    with open_archive(p) as zf:
+        members = read_members(p, zf, ("format", "version", *_FIELDS),
+                               max_bytes=max_bytes)
+        _check_marker(p, zf, members)
+        _check_shapes(p, members)
+        arrays = {k: freeze(read_array(p, zf, members[k])) for k in _FIELDS}
+    try:  # fresh frozen arrays: the model holds them without a copy
         return SlicedModel(*(arrays[k] for k in _FIELDS[:7]),
                            **{k: arrays[k] for k in _FIELDS[7:]})
-    except (InputValueError, TypeError) as exc:
+    except (InputValueError, InputTypeError) as exc:
         raise StorageFileError(f"{p!r} holds an invalid vecslice model: {exc}") from exc
 
 
-def _read_arrays(p: str, data: Any) -> dict[str, NDArray[Any]]:
-    """Check the format marker and version, then read every field as int64."""
-    try:
-        marker = str(data["format"][()]) if "format" in data.files else None
-        if marker != FORMAT:
+def _check_marker(p: str, zf: Any, members: dict[str, Member]) -> None:
+    """The format marker and version, read only if they are small scalars."""
+    fmt = members.get("format")
+    marker = None
+    if fmt is not None and fmt.shape == () and fmt.dtype.kind == "U" and (
+        fmt.nbytes <= 4 * 64
+    ):
+        marker = str(read_array(p, zf, fmt)[()])
+    elif fmt is not None:
+        marker = f"<array of dtype {fmt.dtype} and shape {fmt.shape}>"
+    if marker != FORMAT:
+        raise StorageFileError(
+            f"{p!r} is not a saved vecslice model (format marker {marker!r}; "
+            f"expected {FORMAT!r})"
+        )
+    ver = members.get("version")
+    if ver is None:
+        version: object = "missing"
+    elif ver.shape != () or ver.dtype.kind not in "iu":
+        raise StorageFileError(
+            f"{p!r}: `version` must be one integer; got an array of dtype "
+            f"{ver.dtype} and shape {ver.shape}"
+        )
+    else:
+        version = int(read_array(p, zf, ver)[()])
+    if not isinstance(version, int) or not 1 <= version <= FORMAT_VERSION:
+        raise StorageFileError(
+            f"{p!r} has vecslice format version {version}; this vecslice reads "
+            f"versions 1 to {FORMAT_VERSION}"
+        )
+    missing = [k for k in _FIELDS if k not in members]
+    if missing:
+        raise StorageFileError(f"{p!r} misses the array {missing[0]!r}")
+
+
+def _check_shapes(p: str, members: dict[str, Member]) -> None:
+    """Dtypes and shapes from the headers, against each other, before reading."""
+    for k in _FIELDS:
+        m = members[k]
+        if m.dtype != np.int64:
             raise StorageFileError(
-                f"{p!r} is not a saved vecslice model (format marker {marker!r}; "
-                f"expected {FORMAT!r})"
+                f"{p!r}: array {k!r} must have dtype int64; got {m.dtype}"
             )
-        version = int(data["version"][()]) if "version" in data.files else -1
-        if not 1 <= version <= FORMAT_VERSION:
+        want = (2,) if k.endswith("coords") else (1,)
+        if len(m.shape) != want[0] or (k.endswith("coords") and m.shape[1] != 2):
+            expect = "(N, 2)" if k.endswith("coords") else "(N,)"
             raise StorageFileError(
-                f"{p!r} has vecslice format version {version}; this vecslice reads "
-                f"versions 1 to {FORMAT_VERSION}"
+                f"{p!r} holds an invalid vecslice model: `{k}` must have shape "
+                f"{expect}; got shape {m.shape}"
             )
-        missing = [k for k in _FIELDS if k not in data.files]
-        if missing:
-            raise StorageFileError(f"{p!r} misses the array {missing[0]!r}")
-        out = {k: data[k] for k in _FIELDS}
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        if isinstance(exc, StorageFileError):
-            raise
-        raise StorageFileError(f"{p!r} is a damaged .npz archive ({exc})") from None
-    for k, a in out.items():
-        if a.dtype != np.int64:
+    n = members["slice_z"].shape[0]
+    length = {k: members[k].shape[0] for k in _FIELDS}
+    for k in _FIELDS:
+        want_len = n + 1 if k.endswith("layer_offsets") else n
+        if (k in _PER_LAYER or k.endswith("layer_offsets")) and length[k] != want_len:
             raise StorageFileError(
-                f"{p!r}: array {k!r} must have dtype int64; got {a.dtype}"
+                f"{p!r} holds an invalid vecslice model: `{k}` must have length "
+                f"{want_len} (as `slice_z`); got {length[k]}"
             )
-    return out
+    checks = (
+        ("part_offsets", "ring_offsets", 1, "every part has >= 1 ring"),
+        ("ring_offsets", "coords", 3, "every ring has >= 3 vertices"),
+    )
+    for upper, lower, k, why in checks:
+        n_upper = length[upper] - 1
+        n_lower = length[lower] - (0 if lower == "coords" else 1)
+        if n_upper < 0 or k * n_upper > n_lower:
+            raise StorageFileError(
+                f"{p!r} holds an invalid vecslice model: `{upper}` has "
+                f"{length[upper]} entries, too many for {n_lower} "
+                f"{'vertices' if lower == 'coords' else 'rings'} ({why})"
+            )

@@ -31,22 +31,17 @@ def layer_index(model: Any, i: object, name: str = "layer") -> int:
     ------
     InputTypeError
         If ``i`` is not an integer.
-    InputValueError
-        If it is outside ``[-L, L)``.
+    InputIndexError
+        If it is outside ``[-L, L)`` (also an ``IndexError``).
     """
-    from vecslice.errors import InputTypeError, InputValueError
+    from vecslice.errors import InputIndexError
+    from vecslice.ragged import check_index
 
-    n = model.n_layers
-    if isinstance(i, (bool, np.bool_)) or not isinstance(i, (int, np.integer)):
-        raise InputTypeError(f"`{name}` must be an integer layer index; got "
-                             f"{type(i).__name__} {i!r}")
-    if n == 0:
-        raise InputValueError(f"`{name}` must be a layer index, but the model has "
+    if model.n_layers == 0 and isinstance(i, (int, np.integer)) \
+            and not isinstance(i, (bool, np.bool_)):
+        raise InputIndexError(f"`{name}` must be a layer index, but the model has "
                               f"no layers; got {int(i)}")
-    if not -n <= int(i) < n:
-        raise InputValueError(f"`{name}` must be a layer index in [-{n}, {n}); "
-                              f"got {int(i)}")
-    return int(i) % n
+    return check_index(i, model.n_layers, name, "layer index")
 
 
 def _ring_d(ring: NDArray[np.int64]) -> str:
@@ -94,7 +89,7 @@ def layer_svg(
 
     Raises
     ------
-    InputTypeError, InputValueError
+    InputTypeError, InputIndexError
         If ``i`` is not a layer index of the model.
     SettingsError
         If ``margin`` is negative.

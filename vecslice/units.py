@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice.errors import InputValueError
+from vecslice.errors import InputTypeError, InputValueError
 
 __all__ = ["COORD_LIMIT", "to_microns"]
 
@@ -30,6 +30,8 @@ def to_microns(mm: ArrayLike, *, name: str = "mm") -> NDArray[np.int64]:
 
     Raises
     ------
+    InputTypeError
+        If ``mm`` is not numeric (None, strings, objects, ragged lists).
     InputValueError
         If a value is NaN or infinite, or its magnitude reaches ``COORD_LIMIT`` µm.
 
@@ -38,7 +40,7 @@ def to_microns(mm: ArrayLike, *, name: str = "mm") -> NDArray[np.int64]:
     >>> to_microns([0.0005, -0.0005, 1.25]).tolist()
     [1, -1, 1250]
     """
-    a = np.asarray(mm, dtype=np.float64)
+    a = _as_float(mm, name)
     bad = np.flatnonzero(~np.isfinite(a.ravel()))
     if bad.size:
         i = int(bad[0])
@@ -56,3 +58,28 @@ def to_microns(mm: ArrayLike, *, name: str = "mm") -> NDArray[np.int64]:
             f"(2**30 µm); got {a.ravel()[i]!r} mm at flat index {i}"
         )
     return um.astype(np.int64)
+
+
+def _as_float(mm: ArrayLike, name: str) -> NDArray[np.float64]:
+    """``mm`` as float64, refusing what is not a number (bools, strings, None)."""
+    want = f"`{name}` must be a number or an array of numbers (millimetres)"
+    if mm is None or isinstance(mm, (str, bytes)):
+        raise InputTypeError(f"{want}; got {type(mm).__name__} {mm!r}")
+    try:
+        a = np.asarray(mm)
+    except (TypeError, ValueError) as exc:  # ragged nested lists
+        raise InputTypeError(
+            f"{want}; got {type(mm).__name__} that numpy cannot convert ({exc})"
+        ) from None
+    if a.dtype.kind == "O":
+        try:
+            return a.astype(np.float64)
+        except (TypeError, ValueError) as exc:
+            raise InputTypeError(
+                f"{want}; got {type(mm).__name__} with a non-number ({exc})"
+            ) from None
+    if a.dtype.kind in "US":
+        raise InputTypeError(f"{want}; got {type(mm).__name__} holding strings")
+    if a.dtype.kind not in "iuf":
+        raise InputTypeError(f"{want}; got {type(mm).__name__} of dtype {a.dtype}")
+    return a.astype(np.float64, copy=False)

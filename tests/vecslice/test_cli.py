@@ -100,6 +100,27 @@ def test_compat_cura_reads_and_slices_as_cura_does(tmp_path):
     assert got.coords.shape != half.coords.shape  # the reading matters here
 
 
+def test_adaptive_layers_in_mm(tmp_path):
+    path = mesh("Voron_Design_Cube_v7.stl")
+    p = run_cli(path, "--adaptive-layers", "--layer-height", "0.2",
+                "--adaptive-variation", "0.1", "--adaptive-variation-step", "0.05",
+                "--adaptive-threshold", "0.25", "-o", "cube.npz", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    settings = vs.SliceSettings(layer_height=200, adaptive_layers=True,
+                                adaptive_variation=100, adaptive_variation_step=50,
+                                adaptive_threshold=250)
+    want = vs.slice_mesh(vs.load_mesh(path), settings)
+    got = vs.load_sliced(tmp_path / "cube.npz")
+    assert np.array_equal(got.thickness, want.thickness)
+    assert np.array_equal(got.coords, want.coords)
+    assert len(set(got.thickness[1:].tolist())) > 1  # adaptive: several heights
+
+
+def test_max_layers(tmp_path):
+    p = run_cli(mesh("plate_holes.STL"), "--max-layers", "50", cwd=tmp_path)
+    _only_error_line(p, "max_layers")
+
+
 def test_repair_is_reported_and_metres_get_a_hint(tmp_path):
     path = mesh("hourglass.stl")
     p = run_cli("slice", path, cwd=tmp_path)
@@ -234,6 +255,8 @@ def _only_error_line(p, fragment):
     (["--layer-height", "-0.1"], "bad value for --layer-height: -0.1 mm"),
     (["--layer-height", "nan"], "--layer-height must be a finite length in mm"),
     (["--max-deviation", "1e12"], "--max-deviation 1e+12 mm is out of range"),
+    (["--max-layers", "0"], "bad value for --max-layers: 0: `max_layers`"),
+    (["--adaptive-variation-step", "0"], "bad value for --adaptive-variation-step"),
     (["--scale", "2"], "--scale only applies to a model file"),
     (["preview", "missing.npz", "--layer", "0", "-o", "x.svg"], "does not exist"),
     (["view", "missing.npz"], "does not exist"),
@@ -312,6 +335,7 @@ def test_png_preview_without_matplotlib_names_the_extra(tmp_path):
 @pytest.mark.parametrize(("args", "fragment"), [
     (["--layer-height", "abc"], "invalid float value: 'abc'"),
     (["--slicing-tolerance", "sideways"], "invalid choice: 'sideways'"),
+    (["--max-layers", "1.5"], "invalid int value: '1.5'"),
     (["--frobnicate"], "unrecognized arguments: --frobnicate"),
     (["preview", "x.npz", "-o", "a.png"],
      "one of the arguments --layer --z is required"),

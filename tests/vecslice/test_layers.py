@@ -65,6 +65,18 @@ def test_default_settings():
         ({"max_deviation": -1}, ValueError, "`max_deviation` must be >= 0"),
         ({"union_overlapping_volumes": 1}, TypeError, "`union_overlapping_volumes`"),
         ({"layer_height": 2**31}, ValueError, "`layer_height` must be <="),
+        ({"adaptive_layers": 1}, TypeError,
+         "`adaptive_layers` must be True or False; got int 1"),
+        ({"adaptive_layers": "yes"}, vs.InputTypeError, "got str 'yes'"),
+        ({"adaptive_variation_step": 0}, vs.SettingsError,
+         "`adaptive_variation_step` must be >= 1; got 0"),
+        ({"adaptive_variation_step": -10}, ValueError,
+         "`adaptive_variation_step` must be >= 1; got -10"),
+        ({"adaptive_variation": -1}, vs.SettingsError,
+         "`adaptive_variation` must be >= 0 .*no height is allowed.*; got -1"),
+        ({"adaptive_variation": 0.5}, TypeError, "`adaptive_variation` must be an int"),
+        ({"adaptive_threshold": None}, TypeError, "`adaptive_threshold` must be an"),
+        ({"adaptive_threshold": 2**31}, ValueError, "`adaptive_threshold` must be <="),
     ],
 )
 def test_bad_settings(kwargs, error, fragment):
@@ -87,3 +99,36 @@ def test_layer_heights_rejects_non_settings():
         vs.layer_heights(mesh, {"layer_height": 100})
     with pytest.raises(vs.InputTypeError, match="`mesh` must be"):
         vs.layer_heights("cube.stl", vs.SliceSettings())
+
+
+def test_adaptive_settings_defaults_and_replace():
+    s = vs.SliceSettings()
+    assert (s.adaptive_layers, s.adaptive_variation, s.adaptive_variation_step,
+            s.adaptive_threshold) == (False, 100, 10, 200)
+    t = s.replace(adaptive_layers=True, adaptive_threshold=-5)
+    assert t.adaptive_layers is True and t.adaptive_threshold == -5
+    assert vs.SliceSettings(adaptive_layers=np.True_).adaptive_layers is True
+    names = s.option_names()
+    i = names.index("adaptive_layers")
+    assert names[i:i + 4] == ("adaptive_layers", "adaptive_variation",
+                              "adaptive_variation_step", "adaptive_threshold")
+
+
+def test_layer_heights_switches_to_the_adaptive_schedule():
+    from vecslice.adaptive import adaptive_layer_heights
+
+    # a tetrahedron 2 mm tall, lowest point 3 mm below z = 0, one face at 45 deg
+    mesh = vs.Mesh.from_arrays(
+        np.array([[0, 0, 0], [0, 2000, 0], [2000, 0, 2000], [2000, 0, 0]]) - [
+            0, 0, 3000],
+        np.array([[0, 2, 1], [0, 3, 2], [1, 2, 3], [0, 1, 3]]),
+    )
+    uniform = vs.layer_heights(mesh, vs.SliceSettings())
+    s = vs.SliceSettings(adaptive_layers=True)
+    z, p, t = vs.layer_heights(mesh, s)
+    assert [a.tolist() for a in (z, p, t)] == [
+        a.tolist() for a in adaptive_layer_heights(mesh, s)]
+    # 200 / tan(45 deg) is 200.00000000000003 > 200 µm: 190 µm layers
+    assert t.tolist() == [300, 200] + [190] * 8 and (z == p - 3000).all()
+    assert p[-2] <= 2000 < p[-1]  # the last layer ends above the model
+    assert len(z) != len(uniform[0])  # not the uniform schedule

@@ -1,4 +1,4 @@
-"""Tests for vecslice.parts: make_parts, apply_slicing_tolerance, to_shapely."""
+"""Tests for vecslice.parts (make_parts, apply_slicing_tolerance), with to_shapely."""
 
 from __future__ import annotations
 
@@ -11,7 +11,9 @@ from hypothesis import strategies as st
 
 from vecslice import InputTypeError, LayerPaths, SettingsError
 from vecslice._kernels.rings import ring_area2
-from vecslice.parts import LayerParts, apply_slicing_tolerance, make_parts, to_shapely
+from vecslice.interop import to_shapely
+from vecslice.layerparts import LayerParts
+from vecslice.parts import apply_slicing_tolerance, make_parts
 
 
 def rect(x0, y0, x1, y1, *, cw=False):
@@ -398,3 +400,77 @@ def test_nested_frames_match_shapely_union(fr):
     assert got.is_valid  # holes inside their outline, parts disjoint
     assert got.area == want.area == layer_area2(parts)[0] / 2
     assert shapely.symmetric_difference(got, want).area == 0
+
+
+def test_manifold3d_is_imported_inside_the_functions_that_use_it():
+    import ast
+    import pathlib
+
+    import vecslice
+
+    for path in pathlib.Path(vecslice.__file__).parent.glob("*.py"):
+        tree = ast.parse(path.read_text())
+        for node in tree.body:  # module level only (TYPE_CHECKING blocks are ok)
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                names = [node.module or ""]
+            assert not any(n.split(".")[0] == "manifold3d" for n in names), path.name
+
+
+def test_moved_names_are_still_importable_from_parts():
+    from vecslice import interop, layerparts, parts
+
+    assert parts.LayerParts is layerparts.LayerParts
+    assert parts.to_shapely is interop.to_shapely
+
+
+@pytest.mark.parametrize("value", ["no", 0, 1, None, np.array([True])])
+def test_fill_rule_option_must_be_a_bool(value):
+    """Issue 8 D8: union_overlapping_volumes='no' was taken as True."""
+    with pytest.raises(InputTypeError, match="`union_overlapping_volumes` must be "
+                       "True or False; got"):
+        make_parts(stack3(), union_overlapping_volumes=value)
+    assert make_parts(stack3(), union_overlapping_volumes=np.False_).n_layers == 3
+
+
+def many_layers(n):
+    """n layers: a frame with an island in its hole, and a lone square, shifted."""
+    layers = []
+    for k in range(n):
+        d = k % 7
+        rings = [rect(0, 0, 100 + d, 100), rect(20, 20, 80, 80, cw=True),
+                 rect(40, 40, 60 + d, 60), rect(200, 0, 210, 10 + d)]
+        layers.append(rings[: 1 + k % 4])
+    return stack(*layers)
+
+
+@pytest.mark.parametrize("batch", [1, 2, 5])
+def test_batches_of_layers_give_the_same_parts(batch, monkeypatch):
+    """Issue 8 A5: manifold3d objects exist for one batch of layers at a time."""
+    from vecslice import parts as parts_module
+
+    loops = many_layers(23)
+    want = make_parts(loops)
+    want_inc = apply_slicing_tolerance(loops, "inclusive")
+    want_exc = apply_slicing_tolerance(loops, "exclusive")
+    seen = []
+    real = parts_module._cross_sections
+
+    def spy(lp, rule, k0=0, k1=None):
+        seen.append((k1 if k1 is not None else lp.n_layers) - k0)
+        return real(lp, rule, k0, k1)
+
+    monkeypatch.setattr(parts_module, "_BATCH_LAYERS", batch)
+    monkeypatch.setattr(parts_module, "_cross_sections", spy)
+    got = make_parts(loops)
+    for name in ("coords", "ring_offsets", "part_offsets", "layer_offsets"):
+        assert np.array_equal(getattr(got, name), getattr(want, name)), name
+    assert max(seen) == batch
+    seen.clear()
+    for mode, ref in (("inclusive", want_inc), ("exclusive", want_exc)):
+        out = apply_slicing_tolerance(loops, mode)
+        for name in ("coords", "ring_offsets", "layer_offsets"):
+            assert np.array_equal(getattr(out, name), getattr(ref, name)), (mode, name)
+    assert max(seen) == batch + 1  # each batch also needs the next raw layer

@@ -180,3 +180,46 @@ def test_stage_times_and_defaults_are_reported():
 def test_slice_mesh_rejects_bad_settings():
     with pytest.raises(vs.InputTypeError, match="`settings` must be"):
         vs.slice_mesh(mesh_of("Voron_Design_Cube_v7.stl"), {"layer_height": 100})
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "fragment"),
+    [
+        # Issue 8 C3: times={} raised AttributeError after the whole slice
+        ({"times": {}}, "`times` must be a vecslice.StageTimes or None; got dict"),
+        ({"times": []}, "got list"),
+        # Issue 8 D8: options by truthiness
+        ({"progress": "no"}, "`progress` must be True or False; got str 'no'"),
+        ({"progress": 1}, "`progress` must be True or False; got int 1"),
+    ],
+)
+def test_slice_mesh_checks_arguments_before_any_work(kwargs, fragment, monkeypatch):
+    def no_work(*args, **kw):
+        raise AssertionError("slicing started before the arguments were checked")
+
+    monkeypatch.setattr(vs.pipeline, "layer_heights", no_work)
+    mesh = vs.load_mesh(trimesh.creation.box((10, 10, 2)))
+    with pytest.raises(vs.InputTypeError, match=fragment):
+        vs.slice_mesh(mesh, **kwargs)
+
+
+def test_memory_per_layer_is_arrays_not_python_objects():
+    """Issue 8 A5: per-layer Python objects made a tall mesh cost > 1 kB per layer.
+
+    Traced allocations (numpy arrays and Python objects) at their peak stay
+    within 5x the model's own bytes per layer (before: 7.5x, 893 B per layer).
+    """
+    import tracemalloc
+
+    v = [[0, 0, 0], [10_000, 0, 0], [0, 10_000, 0], [3000, 3000, 2_000_000]]
+    mesh = vs.Mesh.from_arrays(v, [[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]])
+    settings = vs.SliceSettings(initial_layer_height=100)
+    vs.slice_mesh(mesh, settings.replace(layer_height=100_000))  # compile, caches
+    tracemalloc.start()
+    try:
+        model = vs.slice_mesh(mesh, settings)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert model.n_layers == 20_000
+    assert peak / model.n_layers <= 5 * model.nbytes / model.n_layers

@@ -9,7 +9,8 @@ import pytest
 import shapely
 import trimesh
 
-from vecslice import LayerPaths, LayoutError, StorageFileError
+from vecslice import InputTypeError, LayerPaths, LayoutError, StorageFileError
+from vecslice.layerparts import LayerParts
 from vecslice.parts import make_parts
 from vecslice.storage import FORMAT, SlicedModel, load_sliced
 
@@ -276,3 +277,86 @@ def test_index_errors(model):
         model.layer(3)
     with pytest.raises(ValueError, match="`j` must be a part index of layer 1"):
         model.part(1, 0)
+
+
+@pytest.mark.parametrize("value", ["yes", 1, None])
+def test_compress_must_be_a_bool(model, tmp_path, value):
+    """Issue 8 D8: compress='yes' was taken by truthiness."""
+    with pytest.raises(InputTypeError, match="`compress` must be True or False"):
+        model.save(tmp_path / "m.npz", compress=value)
+    assert os.listdir(tmp_path) == []
+
+
+SQ = rect(0, 0, 10, 10)
+HOLE = rect(2, 2, 8, 8, cw=True)
+
+
+@pytest.mark.parametrize(
+    ("coords", "ring_offsets", "part_offsets", "fragment"),
+    [
+        # Issue 8 B5: clockwise or empty outlines were accepted at load
+        (rect(0, 0, 10, 10, cw=True), [0, 4], [0, 1],
+         r"ring 0 \(the outline of part 0, layer 0\) must be counter-clockwise "
+         r"\(area > 0\); got twice the signed area -200 µm²"),
+        (SQ + rect(2, 2, 8, 8), [0, 4, 8], [0, 2],
+         r"ring 1 \(a hole of part 0, layer 0\) must be clockwise \(area < 0\); "
+         r"got twice the signed area 72"),
+        ([[0, 0], [10, 0], [20, 0]], [0, 3], [0, 1],
+         r"ring 0 \(the outline .*\) must be counter-clockwise .* got .* area 0 "),
+        ([[0, 0], [10, 0]], [0, 2], [0, 1],
+         r"every ring must have >= 3 vertices; ring 0 \(the outline of part 0, "
+         r"layer 0\) has 2"),
+        (SQ + HOLE[:2], [0, 4, 6], [0, 2], r"ring 1 \(a hole .*\) has 2"),
+        (SQ + HOLE[:2], [0, 4, 4, 6], [0, 3], r"ring 1 \(a hole .*\) has 0"),
+    ],
+)  # fmt: skip
+def test_ring_sizes_and_orientation_are_validated(
+    tmp_path, coords, ring_offsets, part_offsets, fragment
+):
+    layout = {"slice_z": [1], "print_z": [2], "thickness": [2],
+              "layer_offsets": [0, len(part_offsets) - 1],
+              "part_offsets": part_offsets, "ring_offsets": ring_offsets,
+              "coords": coords}  # fmt: skip
+    with pytest.raises(LayoutError, match=fragment):
+        SlicedModel(*(layout[k] for k in FIELDS[:7]))
+    with pytest.raises(LayoutError, match=fragment):
+        LayerParts(coords, ring_offsets, part_offsets, [0, len(part_offsets) - 1])
+    good = SlicedModel([1], [2], [2], [0, 1], [0, 2], [0, 4, 8], SQ + HOLE)
+    arrays = _good(good) | {k: np.asarray(v, np.int64).reshape(-1, 2)
+                            if k == "coords" else np.asarray(v, np.int64)
+                            for k, v in layout.items()}
+    path = _npz(tmp_path / "bad.npz", **arrays)
+    if 3 * (len(ring_offsets) - 1) > len(coords):  # seen in the .npy headers
+        fragment = (rf"`ring_offsets` has {len(ring_offsets)} entries, too many for "
+                    rf"{len(coords)} vertices \(every ring has >= 3 vertices\)")
+    with pytest.raises(StorageFileError, match="holds an invalid vecslice model: "
+                       r"(every ring must have >= 3 vertices; )?" + fragment):
+        load_sliced(path)
+
+
+def test_second_layer_second_part_is_located():
+    coords = SQ + rect(20, 0, 30, 10) + rect(22, 2, 28, 8)  # 3rd ring: CCW hole
+    with pytest.raises(LayoutError, match=r"ring 2 \(a hole of part 1, layer 1\)"):
+        SlicedModel([1, 2], [2, 3], [2, 1], [0, 1, 2], [0, 1, 3], [0, 4, 8, 12],
+                    coords)
+
+
+@pytest.mark.parametrize(
+    ("change", "fragment"),
+    [
+        # Issue 8 C2: an array-shaped version raised TypeError
+        ({"version": np.array([1, 1])},
+         r"`version` must be one integer; got an array of dtype int64 and shape "
+         r"\(2,\)"),
+        ({"version": np.array(1.0)}, "`version` must be one integer; got .*float64"),
+        ({"version": np.array("1")}, "`version` must be one integer"),
+        ({"format": np.array([FORMAT, FORMAT])},
+         "format marker '<array of dtype <U20 and shape \\(2,\\)>'"),
+        ({"format": np.array(FORMAT * 100)}, "format marker '<array of dtype <U"),
+        ({"format": np.array(7)}, "format marker '<array of dtype int64"),
+    ],
+)  # fmt: skip
+def test_format_and_version_fields_must_be_scalars(model, tmp_path, change, fragment):
+    path = _npz(tmp_path / "v.npz", **(_good(model) | change))
+    with pytest.raises(StorageFileError, match=fragment):
+        load_sliced(path)

@@ -1,0 +1,137 @@
+"""Tests for vecslice.paths: Paths and LayerPaths views, construction and errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import vecslice as vs
+from vecslice import InputIndexError, InputTypeError, InputValueError, LayerPaths, Paths
+
+TRI = [[0, 0], [10, 0], [0, 10]]
+SQ = [[0, 0], [10, 0], [10, 10], [0, 10]]
+
+
+def two_rings():
+    return Paths(TRI + SQ, [0, 3, 7])
+
+
+def test_ring_negative_indices_count_from_the_end():
+    """Issue 8 B6: ring(-1) returned an empty array."""
+    p = two_rings()
+    assert p.ring(-1).tolist() == SQ
+    assert p.ring(-2).tolist() == TRI
+    assert p.ring(1).tolist() == SQ
+    assert [r.shape[0] for r in p.rings()] == [3, 4]
+
+
+@pytest.mark.parametrize(
+    ("i", "exc", "fragment"),
+    [
+        (2, InputIndexError, r"`i` must be a ring index in \[-2, 2\); got 2"),
+        (-3, InputIndexError, r"`i` must be a ring index in \[-2, 2\); got -3"),
+        (np.int64(5), InputIndexError, r"in \[-2, 2\); got 5$"),
+        (0.5, InputTypeError, "`i` must be an integer ring index; got float 0.5"),
+        ("0", InputTypeError, "`i` must be an integer ring index; got str '0'"),
+        (True, InputTypeError, "got bool True"),
+    ],
+)
+def test_ring_index_errors(i, exc, fragment):
+    with pytest.raises(exc, match=fragment) as info:
+        two_rings().ring(i)
+    builtin = IndexError if exc is InputIndexError else TypeError
+    assert isinstance(info.value, builtin) and isinstance(info.value, vs.VecsliceError)
+
+
+def test_ring_of_empty_paths_is_an_index_error():
+    with pytest.raises(IndexError, match=r"in \[0, 0\); got 0"):
+        Paths(np.empty((0, 2), np.int64), [0]).ring(0)
+
+
+def test_from_rings_builds_the_layout():
+    p = Paths.from_rings([TRI, np.array(SQ, np.int32), [], np.empty((0, 2), int)])
+    assert p.ring_offsets.tolist() == [0, 3, 7, 7, 7]
+    assert p.coords.dtype == np.int64 and p.ring(1).tolist() == SQ
+    assert Paths.from_rings([]).n_rings == 0
+    assert Paths.from_rings(iter([TRI])).n_rings == 1
+
+
+@pytest.mark.parametrize(
+    ("rings", "exc", "fragment"),
+    [
+        # Issue 8 B7: 3-column rings were silently reshaped into garbage
+        ([TRI, [[0, 0, 1], [5, 0, 1], [0, 5, 1]]], InputValueError,
+         r"`rings\[1\]` must have shape \(N, 2\); got shape \(3, 3\)"),
+        ([[0, 0, 10, 0, 0, 10]], InputValueError,
+         r"`rings\[0\]` must have shape \(N, 2\); got shape \(6,\)"),
+        ([[[0.5, 0], [1, 0], [0, 1]]], InputTypeError,
+         r"`rings\[0\]` must be integer microns; got dtype float64"),
+        ([TRI, [[2**30, 0], [0, 0], [0, 1]]], InputValueError,
+         r"`rings\[1\]` must satisfy \|value\| < 2\*\*30"),
+        # Issue 8 C3: raw TypeError
+        (None, InputTypeError, "`rings` must be a sequence of .* got NoneType"),
+        (5, InputTypeError, "got int"),
+        ("abc", InputTypeError, "got str"),
+        ([None], InputTypeError, r"`rings\[0\]` must be an integer array"),
+    ],
+)  # fmt: skip
+def test_from_rings_errors_name_the_ring(rings, exc, fragment):
+    with pytest.raises(exc, match=fragment):
+        Paths.from_rings(rings)
+
+
+def layered():
+    return LayerPaths(TRI + SQ, [0, 3, 7], [0, 1, 1, 2])
+
+
+def test_layer_views_and_negative_layers():
+    lp = layered()
+    assert [r.tolist() for r in lp.layer(0)] == [TRI]
+    assert lp.layer(1) == []
+    assert [r.tolist() for r in lp.layer(-1)] == [SQ]
+    assert [r.tolist() for r in lp.layer(np.int32(2))] == [SQ]
+
+
+@pytest.mark.parametrize(
+    ("k", "exc", "fragment"),
+    [
+        # Issue 8 C3: layer(0.5) and layer('0') raised raw builtins
+        (0.5, InputTypeError, "`k` must be an integer layer index; got float 0.5"),
+        ("0", InputTypeError, "`k` must be an integer layer index; got str '0'"),
+        (None, InputTypeError, "got NoneType None"),
+        (3, InputIndexError, r"`k` must be a layer index in \[-3, 3\); got 3"),
+        (-4, InputIndexError, r"got -4"),
+    ],
+)
+def test_layer_index_errors(k, exc, fragment):
+    with pytest.raises(exc, match=fragment):
+        layered().layer(k)
+
+
+@pytest.mark.parametrize(
+    ("call", "exc", "fragment"),
+    [
+        # Issue 8 C3: raw builtins from the constructor and empty()
+        (lambda: LayerPaths(TRI, [0, 3], [0, 1], open=[1, 2]), InputTypeError,
+         "`open` must be a vecslice.LayerPaths or None; got list"),
+        (lambda: LayerPaths.empty(1.5), InputTypeError,
+         "`n_layers` must be an integer number of layers; got float 1.5"),
+        (lambda: LayerPaths.empty("3"), InputTypeError, "`n_layers` must be"),
+        (lambda: LayerPaths.empty(-1), InputValueError, "`n_layers` must be >= 0"),
+        (lambda: LayerPaths(TRI, [0, 3], [0, 1], open=LayerPaths.empty(2)),
+         vs.LayoutError, "`open` must have 1 layers; got 2"),
+    ],
+)  # fmt: skip
+def test_layer_paths_argument_errors(call, exc, fragment):
+    with pytest.raises(exc, match=fragment):
+        call()
+
+
+def test_empty_and_paths():
+    e = LayerPaths.empty(3)
+    assert e.n_layers == 3 and e.n_rings == 0 and e.layer(-1) == []
+    assert LayerPaths.empty(np.int64(0)).n_layers == 0
+    lp = layered()
+    p = lp.paths()
+    assert isinstance(p, Paths) and p.coords is lp.coords  # shared, no copy
+    assert p.ring_lengths().tolist() == [3, 4]

@@ -1,0 +1,162 @@
+"""Tests for vecslice.ragged: immutable arrays, index checks, offsets helpers."""
+
+from __future__ import annotations
+
+import copy
+import pickle
+
+import numpy as np
+import pytest
+import trimesh
+
+import vecslice as vs
+from vecslice.layerparts import LayerParts
+from vecslice.ragged import adopt, freeze, is_frozen
+
+
+def assert_immutable(a: np.ndarray) -> None:
+    """Neither ``a`` nor any array it is a view of can be made writeable again."""
+    assert isinstance(a, np.ndarray) and not a.flags.writeable
+    x = a
+    while isinstance(x, np.ndarray):
+        with pytest.raises(ValueError, match="WRITEABLE"):
+            x.flags.writeable = True
+        assert not x.flags.writeable
+        x = x.base
+    # the end of the chain exports no writeable buffer
+    try:
+        view = memoryview(x)
+    except TypeError:
+        pass
+    else:
+        assert view.readonly
+
+
+def square_model():
+    sq = [[0, 0], [10, 0], [10, 10], [0, 10]]
+    return vs.SlicedModel([100], [200], [200], [0, 1], [0, 1], [0, 4], sq)
+
+
+def containers():
+    """Every container vecslice returns, built the usual ways."""
+    box = vs.load_mesh(trimesh.creation.box((10, 10, 2)))
+    model = vs.slice_mesh(box)
+    loops = vs.slice_contours(box, model.slice_z)
+    parts = vs.make_parts(loops)
+    sq = [[0, 0], [10, 0], [10, 10], [0, 10]]
+    return {
+        "Mesh": box,
+        "Mesh.from_arrays": vs.Mesh.from_arrays(box.vertices, box.faces),
+        "SlicedModel": model,
+        "SlicedModel()": square_model(),
+        "SlicedModel.open": model.open,
+        "LayerPaths": loops,
+        "LayerPaths.open": loops.open,
+        "LayerPaths()": vs.LayerPaths(sq, [0, 4], [0, 1]),
+        "LayerPaths.paths()": loops.paths(),
+        "LayerParts": parts,
+        "LayerParts()": LayerParts(sq, [0, 4], [0, 1], [0, 1]),
+        "Paths": vs.Paths(sq, [0, 4]),
+        "Paths.from_rings": vs.Paths.from_rings([sq]),
+        "simplify": vs.simplify(vs.Paths(sq, [0, 4])),
+        "load_sliced": _saved_and_loaded(model),
+    }
+
+
+def _saved_and_loaded(model):
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as d:
+        model.save(Path(d) / "m.npz")
+        return vs.load_sliced(Path(d) / "m.npz")
+
+
+def arrays_of(obj):
+    for name in ("vertices", "faces", "coords", "ring_offsets", "part_offsets",
+                 "layer_offsets", "slice_z", "print_z", "thickness", "open_coords",
+                 "open_ring_offsets", "open_layer_offsets", "open_chains",
+                 "stitched_gaps"):  # fmt: skip
+        a = getattr(obj, name, None)
+        if a is not None:
+            yield name, a
+
+
+@pytest.mark.parametrize("kind", sorted(containers()))
+def test_container_arrays_cannot_be_made_writeable(kind):
+    obj = containers()[kind]
+    names = []
+    for name, a in arrays_of(obj):
+        names.append(name)
+        assert_immutable(a)
+        if a.shape[0]:
+            assert_immutable(a[:1])  # views too
+    assert names
+
+
+def test_mesh_faces_cannot_be_made_writeable_and_corrupted():
+    """Issue 8 A6: flipping the flag and writing a bad index crashed a kernel."""
+    mesh = vs.load_mesh(trimesh.creation.box((10, 10, 2)))
+    with pytest.raises(ValueError):
+        mesh.faces.flags.writeable = True
+    with pytest.raises((ValueError, AttributeError)):  # the base has no flags
+        mesh.faces.base.flags.writeable = True
+    with pytest.raises(ValueError, match="read-only"):
+        mesh.faces[0, 0] = 10**9
+    assert vs.slice_mesh(mesh).n_layers == 18
+
+
+def test_caller_arrays_are_copied_and_frozen_arrays_shared():
+    c = np.array([[0, 0], [10, 0], [10, 10], [0, 10]], np.int64)
+    o = np.array([0, 4], np.int64)
+    p = vs.Paths(c, o)
+    c[0, 0] = 5
+    o.flags.writeable = False  # read-only but owning: still the caller's array
+    p2 = vs.Paths(p.coords, o)
+    assert p.coords[0, 0] == 0
+    assert p2.coords is p.coords  # immutable: shared without a copy
+    assert not np.shares_memory(p2.ring_offsets, o)
+    view = np.arange(8, dtype=np.int64).reshape(4, 2)[:, :]
+    p3 = vs.Paths(view, [0, 4])
+    assert not np.shares_memory(p3.coords, view)
+
+
+def test_freeze_keeps_memory_and_data_alive_without_a_copy():
+    a = np.arange(10, dtype=np.int64).reshape(5, 2)
+    f = freeze(a)
+    assert np.shares_memory(f, a) and is_frozen(f) and not is_frozen(a[:1])
+    assert freeze(f) is f
+    del a
+    assert f.sum() == 45
+    assert_immutable(f)
+    e = freeze(np.empty((0, 2), np.int64))
+    assert e.shape == (0, 2) and is_frozen(e)
+
+
+def test_adopt_copies_only_what_the_caller_can_write():
+    fresh = np.arange(4)
+    assert np.shares_memory(adopt(fresh, [0, 1, 2, 3]), fresh)
+    assert not np.shares_memory(adopt(fresh, fresh), fresh)
+    frozen = freeze(np.arange(4))
+    assert adopt(frozen, frozen) is frozen
+
+
+@pytest.mark.parametrize("kind", ["SlicedModel", "LayerPaths", "Paths", "LayerParts"])
+def test_pickle_and_deepcopy_keep_arrays_immutable(kind):
+    obj = containers()[kind]
+    for clone in (pickle.loads(pickle.dumps(obj)), copy.deepcopy(obj),
+                  copy.copy(obj)):
+        assert type(clone) is type(obj)
+        for name, a in arrays_of(clone):
+            assert_immutable(a)
+            assert np.array_equal(a, getattr(obj, name))
+        if isinstance(obj, vs.LayerPaths):
+            assert clone.open.n_rings == obj.open.n_rings
+
+
+def test_frozen_views_stored_by_a_container_are_made_contiguous():
+    model = square_model()
+    strided = model.coords[::2]
+    assert is_frozen(strided) and not strided.flags.c_contiguous
+    f = freeze(strided)
+    assert f.flags.c_contiguous and is_frozen(f) and f.tolist() == strided.tolist()

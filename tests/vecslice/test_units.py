@@ -1,0 +1,45 @@
+"""Tests for vecslice.units: to_microns."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import vecslice as vs
+from vecslice import InputTypeError, InputValueError
+
+
+def test_rounds_half_away_from_zero():
+    assert vs.to_microns([0.0005, -0.0005, 1.25, 2]).tolist() == [1, -1, 1250, 2000]
+    assert vs.to_microns(np.float32(0.5)) == 500
+    assert vs.to_microns(np.array([[1, 2]], np.int32)).tolist() == [[1000, 2000]]
+    from decimal import Decimal
+
+    assert vs.to_microns([Decimal("0.25")]).tolist() == [250]
+
+
+@pytest.mark.parametrize(
+    ("mm", "fragment"),
+    [
+        # Issue 8 C3: raw ValueError / TypeError before
+        ([1.5, "a"], "`mm` must be a number or an array of numbers .* holding strings"),
+        (object(), "got object with a non-number"),
+        (None, "got NoneType None"),
+        ("1.5", "got str '1.5'"),
+        ([[1.0], [1.0, 2.0]], "got list that numpy cannot convert"),
+        ([True, False], "got list of dtype bool"),
+        ([1 + 2j], "got list of dtype complex128"),
+        ([object()], "got list with a non-number"),
+    ],
+)
+def test_non_numbers_are_type_errors(mm, fragment):
+    with pytest.raises(InputTypeError, match=fragment) as info:
+        vs.to_microns(mm)
+    assert isinstance(info.value, TypeError)
+
+
+def test_bad_values_name_the_argument():
+    with pytest.raises(InputValueError, match="`scale` must be finite; got nan"):
+        vs.to_microns([1.0, float("nan")], name="scale")
+    with pytest.raises(InputValueError, match="must be below"):
+        vs.to_microns(2e6)

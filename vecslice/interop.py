@@ -1,0 +1,71 @@
+"""Exchange with other geometry libraries: layers as shapely geometries."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vecslice.ragged import check_index, offsets_from_lengths
+
+__all__ = ["to_shapely"]
+
+
+def _close_rings(
+    coords: NDArray[np.int64], offsets: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Rings ``offsets[i]:offsets[i + 1]`` with their first vertex repeated.
+
+    GeoArrow/shapely layout; the returned offsets start at 0.
+    """
+    lens = np.diff(offsets)
+    new_offsets = offsets_from_lengths(lens + 1)
+    local = np.arange(new_offsets[-1], dtype=np.int64)
+    local -= np.repeat(new_offsets[:-1], lens + 1)
+    local %= np.maximum(np.repeat(lens, lens + 1), 1)
+    return coords[local + np.repeat(offsets[:-1], lens + 1)], new_offsets
+
+
+def to_shapely(parts: Any, k: int, *, scale: float = 1e-3) -> Any:
+    """Layer ``k`` of a parts container as a shapely MultiPolygon.
+
+    Parameters
+    ----------
+    parts : LayerParts or SlicedModel
+        Anything with ``coords``, ``ring_offsets``, ``part_offsets`` and
+        ``layer_offsets``.
+    k : int
+        Layer index (negative counts from the end).
+    scale : float, default 1e-3
+        Factor from µm to the output unit (default: millimetres).
+
+    Returns
+    -------
+    shapely.MultiPolygon
+        One polygon per part, rings closed as shapely requires.
+
+    Examples
+    --------
+    >>> from vecslice.layerparts import LayerParts
+    >>> p = LayerParts([[0, 0], [1000, 0], [0, 1000]], [0, 3], [0, 1], [0, 1])
+    >>> to_shapely(p, 0).area
+    0.5
+    """
+    try:
+        import shapely
+    except ImportError:
+        raise ImportError(
+            "shapely is required for to_shapely(); pip install shapely"
+        ) from None
+    k = check_index(k, parts.layer_offsets.shape[0] - 1, "k", "layer index")
+    q0, q1 = (int(x) for x in parts.layer_offsets[k : k + 2])
+    part_offsets = parts.part_offsets[q0 : q1 + 1]
+    r0, r1 = int(part_offsets[0]), int(part_offsets[-1])
+    offsets = parts.ring_offsets[r0 : r1 + 1]
+    closed, ring_offsets = _close_rings(parts.coords, offsets)
+    return shapely.from_ragged_array(
+        shapely.GeometryType.MULTIPOLYGON,
+        closed * scale,
+        (ring_offsets, part_offsets - r0, np.array([0, q1 - q0], dtype=np.int64)),
+    )[0]

@@ -1,0 +1,316 @@
+"""``.npz`` archives read and written safely.
+
+Reading: the ``.npy`` header of every member is read first (a few hundred bytes
+inflated), so dtypes, shapes, sizes and compression ratios are checked before any
+array is inflated: a small hostile file cannot make vecslice allocate gigabytes.
+
+Writing: to a temporary file beside the target, renamed into place, removed on any
+failure, on Ctrl-C and on SIGTERM; symbolic links are written through, new files
+respect the umask and overwritten files keep their mode.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import math
+import os
+import secrets
+import signal
+import struct
+import threading
+import tokenize
+import zipfile
+import zlib
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import IO, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vecslice.errors import InputTypeError, InputValueError, StorageFileError
+
+__all__ = [
+    "MAX_BYTES",
+    "MAX_RATIO",
+    "Member",
+    "check_path",
+    "open_archive",
+    "read_array",
+    "read_members",
+    "write_atomic",
+]
+
+MAX_BYTES = 2**32
+"""Default limit on the total size of the arrays of one archive (4 GiB)."""
+MAX_RATIO = 200
+"""Largest compression ratio accepted for a member of more than 1 MiB (deflate
+reaches about 1000:1 on constant data; saved models compress about 2-10:1)."""
+_RATIO_FLOOR = 2**20
+_CHUNK = 2**24
+# what zipfile, zlib and numpy's header parser raise on damaged or odd files
+_READ_ERRORS = (OSError, ValueError, TypeError, EOFError, SyntaxError, RuntimeError,
+                NotImplementedError, struct.error, tokenize.TokenError, zlib.error,
+                zipfile.BadZipFile)
+
+
+@dataclass(frozen=True, slots=True)
+class Member:
+    """One ``.npy`` member of an archive, described by its header."""
+
+    name: str
+    """The array's name (the member's file name without ``.npy``)."""
+    dtype: np.dtype[Any]
+    shape: tuple[int, ...]
+    nbytes: int
+    """Bytes of array data the header promises."""
+    info: zipfile.ZipInfo
+
+
+def check_path(path: object, name: str = "path") -> str:
+    """``path`` as a non-empty ``str``, or an InputTypeError / InputValueError."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputTypeError(
+            f"`{name}` must be a file path (str or os.PathLike); got "
+            f"{type(path).__name__} {path!r}"
+        )
+    p = os.fspath(path)
+    if not isinstance(p, str):  # bytes paths
+        p = os.fsdecode(p)
+    if not p:
+        raise InputValueError(f"`{name}` must be a non-empty file path; got ''")
+    if "\0" in p:
+        raise InputValueError(f"`{name}` must not contain NUL characters; got {p!r}")
+    return p
+
+
+def open_archive(p: str) -> zipfile.ZipFile:
+    """Open ``p`` as a zip archive, with clear errors for what is not one."""
+    try:
+        if not os.path.exists(p):
+            raise StorageFileError(f"{p!r} does not exist")
+        if os.path.isdir(p):
+            raise StorageFileError(f"{p!r} is a directory, not a saved vecslice model")
+        with open(p, "rb") as fh:
+            magic = fh.read(6)
+        if magic.startswith(b"\x93NUMPY"):
+            raise StorageFileError(
+                f"{p!r} is a single .npy array, not an .npz written by "
+                "SlicedModel.save()"
+            )
+        return zipfile.ZipFile(p)
+    except _READ_ERRORS as exc:
+        if isinstance(exc, StorageFileError):
+            raise
+        raise StorageFileError(
+            f"{p!r} is not an .npz file written by SlicedModel.save() ({exc})"
+        ) from None
+
+
+def read_members(
+    p: str, zf: zipfile.ZipFile, names: tuple[str, ...], *, max_bytes: int
+) -> dict[str, Member]:
+    """Headers of the members ``names`` (those present), checked, nothing inflated.
+
+    Refuses duplicated or encrypted members, compression other than deflate,
+    pickled (object) arrays, Fortran order, a header whose shape disagrees with
+    the member's size, a compression ratio above :data:`MAX_RATIO` (members over
+    1 MiB) and a total above ``max_bytes``.
+    """
+    seen: set[str] = set()
+    for info in zf.infolist():
+        if info.filename in seen:
+            raise StorageFileError(f"{p!r} holds the member {info.filename!r} twice")
+        seen.add(info.filename)
+    out: dict[str, Member] = {}
+    total = 0
+    for name in names:
+        if name + ".npy" not in seen:
+            continue
+        member = _read_header(p, zf, zf.getinfo(name + ".npy"), name)
+        total += member.nbytes
+        if total > max_bytes:
+            raise StorageFileError(
+                f"{p!r} holds more than `max_bytes` = {max_bytes} bytes of arrays "
+                f"(at {name!r}: {total}); pass load_sliced(..., max_bytes=...) to "
+                "read larger models"
+            )
+        out[name] = member
+    return out
+
+
+def _read_header(
+    p: str, zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str
+) -> Member:
+    where = f"{p!r}: member {info.filename!r}"
+    if info.flag_bits & 0x1:
+        raise StorageFileError(f"{where} is encrypted")
+    if info.compress_type not in (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED):
+        raise StorageFileError(
+            f"{where} uses compression method {info.compress_type}; vecslice "
+            "reads stored or deflated members"
+        )
+    if (info.compress_type == zipfile.ZIP_DEFLATED and info.file_size > _RATIO_FLOOR
+            and info.file_size > MAX_RATIO * max(info.compress_size, 1)):
+        raise StorageFileError(
+            f"{where} would inflate {info.compress_size} bytes to {info.file_size} "
+            f"(ratio above {MAX_RATIO}:1): not a saved model, maybe a zip bomb"
+        )
+    try:
+        with zf.open(info) as fp:
+            version = np.lib.format.read_magic(fp)
+            if version == (1, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_1_0(fp)
+            elif version in ((2, 0), (3, 0)):
+                shape, fortran, dtype = np.lib.format.read_array_header_2_0(fp)
+            else:  # pragma: no cover - read_magic accepts only these
+                raise ValueError(f"unknown .npy version {version}")
+            offset = fp.tell()
+    except _READ_ERRORS as exc:
+        raise StorageFileError(
+            f"{where} is not a readable .npy array ({exc})"
+        ) from None
+    if dtype.hasobject:
+        raise StorageFileError(
+            f"{where} holds Python objects; vecslice never unpickles"
+        )
+    if fortran and len(shape) > 1:
+        raise StorageFileError(f"{where} is in Fortran order; vecslice writes C order")
+    nbytes = math.prod(shape) * dtype.itemsize
+    if offset + nbytes != info.file_size:
+        raise StorageFileError(
+            f"{where} is damaged: its header promises {nbytes} bytes of data "
+            f"(shape {shape}, dtype {dtype}) but the member holds "
+            f"{info.file_size - offset}"
+        )
+    return Member(name, dtype, tuple(shape), nbytes, info)
+
+
+def read_array(p: str, zf: zipfile.ZipFile, member: Member) -> NDArray[Any]:
+    """Inflate ``member`` into a fresh array (checked size, zip CRC verified)."""
+    out = np.empty(member.shape, dtype=member.dtype)
+    view = memoryview(out.reshape(-1).view(np.uint8))
+    try:
+        with zf.open(member.info) as fp:
+            fp.read(member.info.file_size - member.nbytes)  # the header, read before
+            done = 0
+            while done < member.nbytes:
+                n = fp.readinto(view[done : done + _CHUNK])
+                if not n:
+                    raise EOFError(f"{member.nbytes - done} bytes missing")
+                done += n
+            if fp.read(1):  # also makes zipfile check the CRC
+                raise ValueError("more data than its header says")
+    except _READ_ERRORS as exc:
+        raise StorageFileError(
+            f"{p!r} is a damaged .npz archive (member {member.info.filename!r}: "
+            f"{exc})"
+        ) from None
+    return out
+
+
+def _resolve(p: str) -> str:
+    """The file a write to ``p`` should replace: symbolic links are followed."""
+    if not os.path.islink(p):
+        return p
+    try:
+        os.stat(p)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise StorageFileError(
+                f"cannot save a vecslice model to {p!r}: it is a symbolic link loop"
+            ) from None
+    return os.path.realpath(p)
+
+
+def _create_temp(target: str) -> tuple[int, str]:
+    """A new hidden file beside ``target``: the umask applies, as for any new file."""
+    head, tail = os.path.split(target)
+    for _ in range(100):
+        tmp = os.path.join(head, f".{tail}.{secrets.token_hex(4)}.tmp")
+        try:
+            return os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666), tmp
+        except FileExistsError:
+            continue
+    raise FileExistsError(errno.EEXIST, "no free temporary file name", target)
+
+
+class _Terminated(BaseException):
+    """SIGTERM arrived while a file was being written (internal)."""
+
+
+@contextlib.contextmanager
+def _sigterm_raises() -> Iterator[None]:
+    """While active, SIGTERM raises :class:`_Terminated` instead of killing.
+
+    Only where SIGTERM would kill the process at once (the default action) and
+    only in the main thread (the only one Python signal handlers run in); the
+    previous handler is restored on exit. Ignored or handled SIGTERM is left alone.
+    """
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL):
+        yield
+        return
+    fired = []
+
+    def handler(signum: int, frame: Any) -> None:
+        if not fired:  # once: a second SIGTERM must not interrupt the clean-up
+            fired.append(signum)
+            raise _Terminated
+
+    signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def write_atomic(path: str, write: Callable[[IO[bytes]], None]) -> None:
+    """Write ``path`` through ``write(file)``: all of it or nothing.
+
+    The data goes to a hidden temporary file beside the target (beside the file
+    a symbolic link points to), which is renamed over the target once complete.
+    On any error, Ctrl-C or SIGTERM the temporary file is removed (SIGTERM then
+    terminates the process as it would have). A new file gets the permissions
+    ``0o666 & ~umask``; an overwritten file keeps its mode.
+
+    Raises
+    ------
+    StorageFileError
+        If the file cannot be written; the message names ``path``.
+    """
+    tmp = None
+    try:
+        with _sigterm_raises():
+            try:
+                target = _resolve(path)
+                if os.path.isdir(target):
+                    raise IsADirectoryError(errno.EISDIR, "is a directory", target)
+                try:
+                    mode: int | None = os.stat(target).st_mode & 0o777
+                except FileNotFoundError:
+                    mode = None
+                fd, tmp = _create_temp(target)
+                with os.fdopen(fd, "wb") as fh:
+                    if mode is not None:
+                        os.fchmod(fh.fileno(), mode)
+                    write(fh)
+                os.replace(tmp, target)
+                tmp = None
+            finally:
+                if tmp is not None:
+                    with contextlib.suppress(FileNotFoundError):
+                        os.unlink(tmp)
+    except _Terminated:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)  # even if restoring was cut
+        signal.raise_signal(signal.SIGTERM)  # the default action: terminate
+        raise StorageFileError(  # pragma: no cover - only if SIGTERM returns
+            f"saving {path!r} was interrupted by SIGTERM; nothing was written"
+        ) from None
+    except OSError as exc:
+        if isinstance(exc, StorageFileError):
+            raise
+        raise StorageFileError(
+            f"cannot save a vecslice model to {path!r}: {exc.strerror or exc}"
+        ) from exc
