@@ -10,14 +10,14 @@ from __future__ import annotations
 import numbers
 import os
 import struct
+import sys
 import zipfile
 import zlib
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import trimesh
 from numpy.typing import ArrayLike, NDArray
 
 from vecslice._validate import (
@@ -38,6 +38,10 @@ from vecslice.meshcheck import (
     orient_faces,
     shells,
 )
+
+if TYPE_CHECKING:  # imported where used: `import vecslice` stays light
+    import trimesh
+
 from vecslice.units import to_microns
 
 __all__ = ["LoadInfo", "Mesh", "MeshReport", "check_mesh", "load_mesh"]
@@ -361,6 +365,8 @@ class Mesh:
 
     def to_trimesh(self) -> trimesh.Trimesh:
         """A ``trimesh.Trimesh`` in float64 millimetres (not processed)."""
+        import trimesh
+
         return trimesh.Trimesh(vertices=self.vertices / 1000.0,
                                faces=self.faces.copy(), process=False)
 
@@ -450,6 +456,8 @@ def _stl_hint(path: Path, size: int) -> str:
 
 def _scene_arrays(scene: trimesh.Scene) -> tuple[NDArray[np.float64], NDArray[Any]]:
     """Vertices and faces of every Trimesh instance of ``scene``, transforms applied."""
+    import trimesh
+
     verts: list[NDArray[np.float64]] = []
     faces: list[NDArray[Any]] = []
     base = 0
@@ -486,6 +494,8 @@ def _read_file(path: Path) -> tuple[NDArray[np.float64], NDArray[Any]]:
     size = path.stat().st_size
     if size == 0:
         raise MeshFileError(f"'{path}' is empty (0 bytes)")
+    import trimesh
+
     try:
         loaded = trimesh.load(str(path), file_type=ext, process=False)
     except _READ_ERRORS as exc:
@@ -577,11 +587,16 @@ def load_mesh(
         path = Path(path_or_trimesh)
         source = str(path)
         v, f = _read_file(path)
-    elif isinstance(path_or_trimesh, trimesh.Trimesh):
+    elif "trimesh" not in sys.modules:  # then it cannot be a trimesh object
+        raise InputTypeError(
+            "`path_or_trimesh` must be a file path, trimesh.Trimesh or "
+            f"trimesh.Scene; got {type(path_or_trimesh).__name__}"
+        )
+    elif isinstance(path_or_trimesh, sys.modules["trimesh"].Trimesh):
         source = "trimesh.Trimesh"
         v = np.asarray(path_or_trimesh.vertices, dtype=np.float64)
         f = np.asarray(path_or_trimesh.faces)
-    elif isinstance(path_or_trimesh, trimesh.Scene):
+    elif isinstance(path_or_trimesh, sys.modules["trimesh"].Scene):
         source = "trimesh.Scene"
         v, f = _scene_arrays(path_or_trimesh)
     else:

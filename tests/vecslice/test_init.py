@@ -37,6 +37,12 @@ def test_a_name_loads_what_it_needs():
     assert "numba" in _loaded_after("import vecslice; vecslice.slice_mesh")
 
 
+def test_slicing_the_demo_needs_no_file_reader_or_plotting():
+    loaded = _loaded_after("import vecslice as vs; vs.slice_mesh(vs.demo_mesh())")
+    assert "manifold3d" in loaded  # the union of each layer
+    assert not {"trimesh", "matplotlib", "pandas", "shapely"} & set(loaded)
+
+
 def test_every_public_name_resolves():
     for name in vs.__all__:
         assert getattr(vs, name) is not None, name
