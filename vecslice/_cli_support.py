@@ -8,14 +8,12 @@ from __future__ import annotations
 
 import os
 import sys
-import tempfile
 import threading
-from collections.abc import Callable
 from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
-from vecslice.errors import InputValueError, StorageFileError
+from vecslice.errors import InputValueError
 
 __all__ = [
     "COMPILE_MESSAGE",
@@ -27,7 +25,6 @@ __all__ = [
     "load_info_lines",
     "note",
     "size_hint",
-    "write_atomic",
 ]
 
 COMPILE_MESSAGE = "vecslice: compiling kernels, first run only"
@@ -139,35 +136,6 @@ def check_output(path: Path | None, suffixes: tuple[str, ...] = (),
         raise CliInputError(f"{flag} '{path}': the directory '{parent}' is not "
                             "writable")
     return path
-
-
-def write_atomic(path: Path, write: Callable[[str], None]) -> None:
-    """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it.
-
-    On any failure or interruption (Ctrl-C included) the temporary file is removed
-    and ``path`` is left as it was.
-
-    Raises
-    ------
-    StorageFileError
-        If the file cannot be written.
-    """
-    tmp = None
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp",
-                                   dir=path.parent if str(path.parent) else ".")
-        os.close(fd)
-        write(tmp)
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)  # as a plain open() would create it
-        os.replace(tmp, path)
-        tmp = None
-    except OSError as exc:
-        raise StorageFileError(f"cannot write '{path}': {exc.strerror or exc}") from exc
-    finally:
-        if tmp is not None and os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 _LOADING = ("source", "faces_in", "vertices_in")

@@ -32,7 +32,6 @@ from vecslice._cli_support import (
     load_info_lines,
     note,
     size_hint,
-    write_atomic,
 )
 from vecslice.errors import VecsliceError
 
@@ -449,13 +448,15 @@ def cmd_preview(args: argparse.Namespace) -> None:
     model, _ = _model_for(args)
     k = _layer_for(model, args)
     assert out is not None
+    from vecslice.npz import write_atomic  # all or nothing, even on Ctrl-C
+
     if out.suffix.lower() == ".svg":
-        text = model.to_svg(k)
-        write_atomic(out, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+        data = model.to_svg(k).encode("utf-8")
+        write_atomic(str(out), lambda fh: fh.write(data))
     else:
         from vecslice.plot import save_layer
 
-        write_atomic(out, lambda tmp: save_layer(model, k, tmp, format="png"))
+        write_atomic(str(out), lambda fh: save_layer(model, k, fh, format="png"))
     print(f"layer {k} of {model.n_layers} (z {model.print_z[k] / 1000:g} mm) "
           f"-> {out}")
 
@@ -465,10 +466,13 @@ def cmd_view(args: argparse.Namespace) -> None:
     out = args.output if args.output is not None else Path(args.file.stem + ".html")
     check_output(out)
     model, title = _model_for(args)
+    from vecslice.npz import write_atomic
     from vecslice.viewer import viewer_html
 
-    text = _work(viewer_html, model, title=title)
-    write_atomic(out, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+    data = _work(viewer_html, model, title=title).encode("utf-8")
+    # written from the main thread: Ctrl-C during the write removes the
+    # temporary file before the process ends
+    write_atomic(str(out), lambda fh: fh.write(data))
     print(f"wrote     {out} ({human_bytes(out.stat().st_size)}, {model.n_layers:,} "
           "layers); open it in a browser")
 

@@ -17,7 +17,7 @@ For an SVG without matplotlib use :meth:`vecslice.SlicedModel.to_svg`.
 from __future__ import annotations
 
 import os
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -293,7 +293,7 @@ def stats(model: Any, *, axes: Any = None) -> Any:
     return ax_area, ax_vert
 
 
-def save_layer(model: Any, i: int, path: str | os.PathLike[str], *,
+def save_layer(model: Any, i: int, path: str | os.PathLike[str] | IO[bytes], *,
                raw: Any = None, dpi: int = 150, format: str | None = None) -> None:
     """Draw layer ``i`` with :func:`layer` and save the figure (format by suffix).
 
@@ -303,8 +303,8 @@ def save_layer(model: Any, i: int, path: str | os.PathLike[str], *,
         The sliced model.
     i : int
         Layer index.
-    path : str or os.PathLike
-        Output file, e.g. ``layer.png``.
+    path : str, os.PathLike or binary file
+        Output file, e.g. ``layer.png`` (with a file object, give ``format``).
     raw : LayerPaths, optional
         Raw loops drawn over the layer (see :func:`layer`).
     dpi : int, default 150
@@ -322,9 +322,9 @@ def save_layer(model: Any, i: int, path: str | os.PathLike[str], *,
     from vecslice.errors import StorageFileError
 
     ax = layer(model, i, raw=raw)
+    target = path if hasattr(path, "write") else os.fspath(path)  # type: ignore[arg-type]
     try:
-        ax.figure.savefig(os.fspath(path), dpi=dpi, facecolor="white",
-                          format=format)
+        ax.figure.savefig(target, dpi=dpi, facecolor="white", format=format)
     except OSError as exc:
-        raise StorageFileError(f"cannot write {os.fspath(path)!r}: "
+        raise StorageFileError(f"cannot write {target!r}: "
                                f"{exc.strerror or exc}") from exc

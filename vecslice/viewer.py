@@ -161,7 +161,10 @@ def viewer_html(model: Any, *, title: str = "vecslice") -> str:
 def write_viewer(
     model: Any, path: str | os.PathLike[str], *, title: str = "vecslice"
 ) -> None:
-    """Write :func:`viewer_html` of ``model`` to ``path`` (UTF-8).
+    """Write :func:`viewer_html` of ``model`` to ``path`` (UTF-8), all or nothing.
+
+    The page goes to a temporary file beside ``path`` that is renamed into place,
+    so an error or Ctrl-C leaves no partial file.
 
     Parameters
     ----------
@@ -177,12 +180,7 @@ def write_viewer(
     StorageFileError
         If the file cannot be written.
     """
-    from vecslice.errors import StorageFileError
+    from vecslice.npz import check_path, write_atomic
 
-    text = viewer_html(model, title=title)
-    try:
-        with open(os.fspath(path), "w", encoding="utf-8") as fh:
-            fh.write(text)
-    except OSError as exc:
-        raise StorageFileError(f"cannot write the viewer to {os.fspath(path)!r}: "
-                               f"{exc.strerror or exc}") from exc
+    data = viewer_html(model, title=title).encode("utf-8")
+    write_atomic(check_path(path), lambda fh: fh.write(data))

@@ -1,5 +1,4 @@
 import io
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -14,7 +13,6 @@ from vecslice._cli_support import (
     check_output,
     load_info_lines,
     size_hint,
-    write_atomic,
 )
 from vecslice._kernels import _jit
 from vecslice.meshcheck import LoadInfo
@@ -89,23 +87,3 @@ def test_check_output(tmp_path):
             check_output(bad)
     with pytest.raises(vs.InputValueError, match=r"-o must name a .png or .svg"):
         check_output(tmp_path / "a.jpg", (".png", ".svg"))
-
-
-def test_write_atomic_leaves_nothing_on_failure(tmp_path):
-    target = tmp_path / "out.txt"
-    write_atomic(target, lambda tmp: Path(tmp).write_text("done"))
-    assert target.read_text() == "done"
-    mask = os.umask(0)
-    os.umask(mask)
-    assert target.stat().st_mode & 0o777 == 0o666 & ~mask
-
-    def interrupted(tmp):
-        Path(tmp).write_text("half")
-        raise KeyboardInterrupt
-
-    with pytest.raises(KeyboardInterrupt):
-        write_atomic(target, interrupted)
-    assert target.read_text() == "done"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.txt"]
-    with pytest.raises(vs.StorageFileError, match="cannot write"):
-        write_atomic(tmp_path / "missing" / "x", lambda tmp: None)
