@@ -49,7 +49,9 @@ def kernel(signature=None, **options):
 
     def decorate(fn):
         disp = njit(cache=True, nogil=True, **options)(fn)
-        if signature is None:
+        if signature is None or not hasattr(disp, "get_call_template"):
+            # inline helpers; or NUMBA_DISABLE_JIT=1, where njit returns the plain
+            # Python function (coverage runs measure kernel bodies as Python lines)
             return disp
         disp.declared_signature = signature
         plain_call_template = disp.get_call_template

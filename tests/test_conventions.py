@@ -3,6 +3,7 @@
 import importlib
 import pkgutil
 
+import numba
 import numpy as np
 import pytest
 from numba.core.caching import NullCache
@@ -24,6 +25,7 @@ KERNELS = list(_kernels())
 DECLARED = [p for p in KERNELS if p.values[0].targetoptions.get("inline") != "always"]
 
 
+@pytest.mark.skipif(numba.config.DISABLE_JIT, reason="NUMBA_DISABLE_JIT=1: no kernels")
 def test_kernels_are_found():
     assert len(DECLARED) >= 30
 
@@ -48,6 +50,7 @@ def test_kernels_declare_one_signature_and_compile_only_it(kernel):
     assert not kernel._can_compile, "no further specialisations"
 
 
+@pytest.mark.skipif(numba.config.DISABLE_JIT, reason="NUMBA_DISABLE_JIT=1: no kernels")
 def test_first_call_compiles_the_declared_signature_only():
     # a fresh kernel: importing compiles nothing, the first call compiles the
     # declared (read-only) signature, which writeable arrays also fit, and

@@ -56,6 +56,7 @@ _LAZY = {
     "slice_contours": "vecslice.slicing",
     "slice_mesh": "vecslice.pipeline",
     "stitch": "vecslice.stitch",
+    "sweep": "vecslice.sweeps",
     "to_microns": "vecslice.units",
 }
 
@@ -98,6 +99,7 @@ __all__ = [
     "slice_contours",
     "slice_mesh",
     "stitch",
+    "sweep",
     "to_microns",
 ]
 
@@ -150,4 +152,5 @@ if TYPE_CHECKING:  # static analysers see the plain imports
     from vecslice.slicing import slice_contours
     from vecslice.stitch import Stitched, stitch
     from vecslice.storage import SlicedModel, load_sliced
+    from vecslice.sweeps import sweep
     from vecslice.units import COORD_LIMIT, to_microns

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from vecslice._kernels.rings import ring_area2
 from vecslice._validate import check_bool, check_option
-from vecslice.errors import InputTypeError, InputValueError
+from vecslice.errors import InputTypeError
 from vecslice.interop import to_shapely as to_shapely  # moved; re-exported
 from vecslice.layerparts import LayerParts as LayerParts  # moved; re-exported
 from vecslice.paths import LayerPaths
@@ -462,30 +462,3 @@ def apply_slicing_tolerance(
     )
     layer_offsets = _offsets(np.bincount(layer[order], minlength=n))
     return LayerPaths._trusted(coords, ring_offsets, layer_offsets, loops.open)
-
-
-def layer_xor_areas(a: LayerPaths, b: LayerPaths) -> NDArray[np.float64]:
-    """Area (µm²) of the symmetric difference of ``a`` and ``b``, per layer.
-
-    Each layer of each input is filled with the NonZero rule first.
-
-    Examples
-    --------
-    >>> sq = [[0, 0], [10, 0], [10, 10], [0, 10]]
-    >>> a = LayerPaths(sq, [0, 4], [0, 1])
-    >>> b = LayerPaths([[5, 0], [15, 0], [15, 10], [5, 10]], [0, 4], [0, 1])
-    >>> layer_xor_areas(a, b).tolist()
-    [100.0]
-    """
-    import manifold3d
-
-    a, b = _check_loops(a), _check_loops(b)
-    if a.n_layers != b.n_layers:
-        raise InputValueError(
-            f"`b` must have as many layers as `a` ({a.n_layers}); got {b.n_layers}"
-        )
-    sa = _cross_sections(a, manifold3d.FillRule.NonZero)
-    sb = _cross_sections(b, manifold3d.FillRule.NonZero)
-    return np.array([(x - y).area() + (y - x).area() for x, y in zip(sa, sb,
-                                                                     strict=True)],
-                    dtype=np.float64)

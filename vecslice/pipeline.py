@@ -70,6 +70,43 @@ def _with_rings(
     return _keep_rings(out, np.diff(ring_offsets) > 0)
 
 
+def _kept_loops(
+    loops: LayerPaths, minimum_circumference: int
+) -> tuple[NDArray[np.bool_], LayerPaths]:
+    """The perimeter filter: ``(keep, loops[keep])`` (µm perimeters, Cura's)."""
+    perimeter = ring_perimeters(loops.coords, loops.ring_offsets)
+    keep = perimeter >= minimum_circumference
+    return keep, _keep_rings(loops, keep)
+
+
+def _clean_closed(
+    loops: LayerPaths,
+    s: SliceSettings,
+    kept: tuple[NDArray[np.bool_], LayerPaths] | None = None,
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The closed-loop part of :func:`clean_loops`, one result ring per input ring.
+
+    Returns ``(coords, ring_offsets)`` with ring ``i`` the cleaned loop ``i`` of
+    ``loops``, empty where it was dropped (short perimeter, simplified away,
+    degenerate): the correspondence that :mod:`vecslice.metrics` measures.
+    ``kept`` is :func:`_kept_loops`'s result, when the caller has it already.
+    """
+    if kept is None:
+        kept = _kept_loops(loops, s.minimum_polygon_circumference)
+    keep, kept_loops = kept
+    kept = None
+    coords, offsets = simplify_rings(
+        kept_loops.coords, kept_loops.ring_offsets, True, s.max_resolution,
+        s.max_deviation, s.max_area_deviation,
+    )
+    coords, offsets = remove_degenerate_vertices(coords, offsets)
+    lens = np.zeros(loops.n_rings, dtype=np.int64)
+    lens[keep] = np.diff(offsets)
+    full = np.zeros(loops.n_rings + 1, dtype=np.int64)
+    np.cumsum(lens, out=full[1:])
+    return coords, full
+
+
 def clean_loops(loops: LayerPaths, settings: SliceSettings) -> LayerPaths:
     """CuraEngine's per-layer clean-up of raw loops, for all layers at once.
 
@@ -90,15 +127,17 @@ def clean_loops(loops: LayerPaths, settings: SliceSettings) -> LayerPaths:
     LayerPaths
         Cleaned closed loops, with cleaned open chains in ``.open``.
     """
-    s = settings
-    keep = ring_perimeters(loops.coords, loops.ring_offsets)
-    closed = _keep_rings(loops, keep >= s.minimum_polygon_circumference)
-    coords, offsets = simplify_rings(
-        closed.coords, closed.ring_offsets, True, s.max_resolution,
-        s.max_deviation, s.max_area_deviation,
-    )
-    coords, offsets = remove_degenerate_vertices(coords, offsets)
-    closed = _with_rings(closed, coords, offsets)
+    return _cleaned(loops, settings, *_clean_closed(loops, settings))
+
+
+def _cleaned(
+    loops: LayerPaths,
+    s: SliceSettings,
+    coords: NDArray[np.int64],
+    offsets: NDArray[np.int64],
+) -> LayerPaths:
+    """:func:`clean_loops` given its closed part (:func:`_clean_closed`)."""
+    closed = _with_rings(loops, coords, offsets)
     chains = loops.open
     if chains is not None:
         coords, offsets = simplify_rings(

@@ -109,6 +109,27 @@ def slice_contours(
                       what="an integer number of layers")
     check_layer_count(z.shape[0], limit, f"{z.shape[0]} heights in `slice_z`",
                       "slice_contours(..., max_layers={n})")
+    return _contours(vertices, faces, z, stitch, None)
+
+
+def _mesh_topology(mesh: Any) -> tuple[NDArray[np.int64], ...]:
+    """The edge topology :func:`slice_contours` builds, for reuse across calls.
+
+    Pass it to ``_contours`` (as ``vecslice.sweep`` does) to slice one mesh at
+    several schedules while building its topology once.
+    """
+    vertices, faces = _check_mesh(mesh, False)
+    return tuple(edge_topology(faces, vertices.shape[0]))
+
+
+def _contours(
+    vertices: NDArray[np.int64],
+    faces: NDArray[np.int64],
+    z: NDArray[np.int64],
+    stitch: bool,
+    topology: tuple[NDArray[np.int64], ...] | None,
+) -> LayerPaths:
+    """:func:`slice_contours` on checked input, with an optional prebuilt topology."""
     order = np.argsort(z, kind="stable")
     is_sorted = bool(np.all(order == np.arange(z.shape[0])))
     zs = z if is_sorted else z[order]
@@ -118,7 +139,9 @@ def slice_contours(
         return LayerPaths(empty.coords, empty.ring_offsets, empty.layer_offsets,
                           open=LayerPaths.empty(n_layers))
 
-    face_edges, edge_vertices, twin = edge_topology(faces, vertices.shape[0])
+    if topology is None:
+        topology = tuple(edge_topology(faces, vertices.shape[0]))
+    face_edges, edge_vertices, twin = topology
     vert_layer = _layer_of_vertices(vertices, zs)
     edge_offsets = range_offsets(vert_layer, edge_vertices)
     points = crossing_points(vertices, edge_vertices, vert_layer, edge_offsets, zs)

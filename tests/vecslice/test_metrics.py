@@ -44,3 +44,186 @@ def test_bad_arguments(cylinder):
         resolution_stats(model, [1, 2])
     with pytest.raises(vs.InputTypeError, match="`model` must be"):
         model_loops("model")
+
+
+# --- exact metrics: known answers ---------------------------------------------
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from vecslice.metrics import (  # noqa: E402
+    contour_errors,
+    layer_xor_areas,
+    move_stats,
+    simplification_errors,
+    volume_error,
+)
+
+
+@pytest.mark.parametrize("d", [1, 5, 7, 25])
+def test_square_with_one_vertex_pushed_out_deviates_by_d(d):
+    # 800 µm square, the midpoint of one edge pushed out by d: simplification
+    # (max_resolution 500 > the 400 µm half edges) removes it
+    raw = vs.LayerPaths([[0, 0], [800, 0], [800 + d, 400], [800, 800], [0, 800]],
+                        [0, 5], [0, 1])
+    err, cleaned = simplification_errors(raw, vs.SliceSettings(max_deviation=25))
+    assert cleaned.coords.tolist() == [[0, 0], [800, 0], [800, 800], [0, 800]]
+    assert err.max_deviation_um == d
+    assert err.raw_to_simplified_um.tolist() == [d]
+    assert err.simplified_to_raw_um.tolist() == [0.0]
+    assert err.area_error_um2 == 400 * d  # the triangle 800 x d / 2
+    assert err.relative_area_error == pytest.approx(400 * d / (640000 + 400 * d))
+    assert err.layer_max_deviation_um().tolist() == [d]
+    assert err.rings_beyond(d) == 0 and err.rings_beyond(d - 0.5) == 1
+
+
+def test_dropped_ring_counts_its_area():
+    # a 200 µm triangle: perimeter < 1 mm, dropped before simplification
+    raw = vs.LayerPaths([[0, 0], [200, 0], [0, 200]], [0, 3], [0, 1])
+    err, cleaned = simplification_errors(raw)
+    assert cleaned.ring_offsets.tolist() == [0, 0]
+    assert err.dropped.tolist() == [True]
+    assert np.isnan(err.max_deviation_um)
+    assert err.area_error_um2 == 20000.0 and err.relative_area_error == 1.0
+
+
+def test_cleaned_rings_are_clean_loops(cylinder):
+    s = vs.SliceSettings(max_resolution=800, max_deviation=40)
+    z, _, _ = vs.layer_heights(cylinder, s)
+    raw = vs.slice_contours(cylinder, z)
+    _, cleaned = simplification_errors(raw, s)
+    want = vs.clean_loops(raw, s)
+    keep = np.diff(cleaned.ring_offsets) > 0
+    assert np.array_equal(cleaned.coords, want.coords)
+    assert np.array_equal(np.diff(cleaned.ring_offsets)[keep],
+                          np.diff(want.ring_offsets))
+
+
+def test_ring_xor_matches_manifold3d_layer_xor_on_real_layers(meshes_dir):
+    # the Voron cube's rings are simple and disjoint: ring-by-ring XOR areas
+    # summed per layer equal the boolean XOR of whole layers
+    mesh = vs.load_mesh(meshes_dir / "Voron_Design_Cube_v7.stl")
+    s = vs.SliceSettings(layer_height=300, max_resolution=2000, max_deviation=100)
+    z, _, _ = vs.layer_heights(mesh, s)
+    raw = vs.slice_contours(mesh, z)
+    err, cleaned = simplification_errors(raw, s)
+    want = layer_xor_areas(raw, vs.clean_loops(raw, s))
+    assert want.sum() > 1e6
+    np.testing.assert_allclose(err.layer_xor_area_um2(), want, rtol=1e-6, atol=1e-2)
+    assert err.linear.all()
+
+
+def test_contour_errors_checks_its_input():
+    a = vs.LayerPaths([[0, 0], [10, 0], [0, 10]], [0, 3], [0, 1])
+    b = vs.LayerPaths([[0, 0], [10, 0], [0, 10]], [0, 3], [0, 0, 1])
+    with pytest.raises(vs.InputValueError, match="`simplified` must have one ring"):
+        contour_errors(a, b)
+    with pytest.raises(vs.InputTypeError, match=r"`raw` must be a vecslice\.Layer"):
+        contour_errors([1], a)
+    with pytest.raises(vs.InputTypeError, match="`settings` must be"):
+        simplification_errors(a, {"max_deviation": 3})
+
+
+@pytest.mark.parametrize("n, r", [(12, 10_000), (200, 1_000), (6, 5_000)])
+def test_regular_polygon_moves_by_hand(n, r):
+    ang = 2 * np.pi * np.arange(n) / n
+    pts = np.rint(np.stack([r * np.cos(ang), r * np.sin(ang)], 1)).astype(np.int64)
+    st_ = move_stats(vs.Paths(pts, [0, n]), speed_mm_s=60, controller_ms=1.0,
+                     percentiles=(0, 50, 100))
+    edge = 2 * r * np.sin(np.pi / n)  # every side, up to the 0.5 µm rounding
+    assert st_.moves == n
+    assert st_.shortest_um == pytest.approx(edge, abs=1.0)
+    assert st_.length_percentiles_um[1] == pytest.approx(edge, abs=1.0)
+    assert st_.duration_percentiles_ms[1] == pytest.approx(edge / 60, abs=1 / 60)
+    assert st_.moves_per_s == pytest.approx(60_000 / edge, rel=1e-3)
+    assert st_.total_length_um == pytest.approx(n * edge, abs=n)
+    # 60 mm/s for 1 ms is 60 µm: the 200-gon's 31.4 µm sides are all short
+    assert st_.short_move_fraction == (1.0 if edge < 60 else 0.0)
+    assert st_.print_time_s == pytest.approx(n * edge / 60_000, rel=1e-3)
+
+
+def test_move_stats_checks_its_input():
+    sq = vs.Paths([[0, 0], [10, 0], [10, 10], [0, 10]], [0, 4])
+    with pytest.raises(vs.SettingsError, match="`speed_mm_s` must be finite and > 0"):
+        move_stats(sq, speed_mm_s=0)
+    with pytest.raises(vs.SettingsError, match="`controller_ms` must be finite"):
+        move_stats(sq, controller_ms=float("nan"))
+    with pytest.raises(vs.InputTypeError, match="`speed_mm_s` must be a number"):
+        move_stats(sq, speed_mm_s="fast")
+    with pytest.raises(vs.InputTypeError, match="`source` must be"):
+        move_stats([[0, 0]])
+    assert move_stats(vs.Paths(np.zeros((0, 2), np.int64), [0])).moves == 0
+
+
+def _prism(w, d, h):
+    import trimesh
+
+    box = trimesh.creation.box((w, d, h))
+    box.apply_translation((0, 0, h / 2))
+    return vs.Mesh.from_arrays(np.rint(box.vertices).astype(np.int64), box.faces)
+
+
+@settings(max_examples=25)
+@given(st.integers(2, 40).map(lambda k: 10 * k),
+       st.integers(2, 40).map(lambda k: 10 * k),
+       st.sampled_from(["middle", "inclusive"]))
+def test_prism_has_no_volume_error_at_any_layer_height(th, init, tol):
+    # an odd height in µm is never hit by the even cut heights, so no layer is
+    # cut exactly at the top face ('exclusive' empties the top layer by design:
+    # see the next test)
+    mesh = _prism(10_000, 20_000, 5_001)
+    s = vs.SliceSettings(layer_height=th, initial_layer_height=init,
+                         slicing_tolerance=tol)
+    st_ = volume_error(vs.slice_mesh(mesh, s), mesh)
+    assert st_.mesh_volume_mm3 == pytest.approx(10 * 20 * 5.001, rel=1e-12)
+    assert st_.volume_error_mm3 == pytest.approx(0.0, abs=1e-9)
+    assert st_.layers == vs.slice_mesh(mesh, s).n_layers
+
+
+def test_exclusive_prism_loses_exactly_its_top_layer():
+    mesh = _prism(10_000, 20_000, 5_001)
+    model = vs.slice_mesh(mesh, vs.SliceSettings(slicing_tolerance="exclusive"))
+    bottom = int(model.print_z[-1] - model.thickness[-1])
+    top = min(int(model.print_z[-1]), 5001) - bottom
+    st_ = volume_error(model, mesh)
+    assert model.layer_areas()[-1] == 0
+    assert st_.volume_error_mm3 == pytest.approx(-200 * top / 1000, rel=1e-12)
+
+
+@pytest.mark.parametrize("t", [100, 200, 300])
+def test_square_cone_staircase_error_closed_form(t):
+    # frustum of a square cone, half-width a - z: A(z) = 4 (a - z)^2, A'' = 8;
+    # a cut at mid-layer loses A'' t^3 / 24 = t^3 / 3 per layer
+    a, init, n = 20_000, 300, 40
+    h = init + (n - 1) * t  # the layers tile [0, h] exactly
+    v = np.array([[-a, -a, 0], [a, -a, 0], [a, a, 0], [-a, a, 0],
+                  [-(a - h), -(a - h), h], [a - h, -(a - h), h], [a - h, a - h, h],
+                  [-(a - h), a - h, h]])
+    f = np.array([[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4],
+                  [1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6], [3, 0, 4], [3, 4, 7]])
+    mesh = vs.Mesh.from_arrays(v, f)
+    s = vs.SliceSettings(layer_height=t, initial_layer_height=init,
+                         minimum_polygon_circumference=0)
+    model = vs.slice_mesh(mesh, s)
+    st_ = volume_error(model, mesh)
+    assert st_.layers == n and st_.stack_height_um == h == st_.height_um
+    want_um3 = -(init**3 + (n - 1) * t**3) / 3
+    assert st_.mesh_volume_mm3 == pytest.approx(4 * (a**3 - (a - h) ** 3) / 3 * 1e-9)
+    assert st_.volume_error_mm3 * 1e9 == pytest.approx(want_um3, rel=1e-6)
+
+
+def test_short_stack_is_measured_against_the_volume_below_it():
+    # 2.04 mm box at 0.1 mm: 18 layers reach 2.0 mm; the staircase error is 0
+    mesh = _prism(10_000, 10_000, 2_040)
+    st_ = volume_error(vs.slice_mesh(mesh), mesh)
+    assert (st_.stack_height_um, st_.height_um) == (2000, 2040)
+    assert st_.reference_volume_mm3 == pytest.approx(200.0, rel=1e-12)
+    assert st_.volume_error_mm3 == pytest.approx(0.0, abs=1e-9)
+
+
+def test_volume_error_checks_its_input(cylinder):
+    model = vs.slice_mesh(cylinder)
+    with pytest.raises(vs.InputTypeError, match="`model` must be"):
+        volume_error(cylinder, cylinder)
+    with pytest.raises(vs.InputTypeError, match="`mesh` must be"):
+        volume_error(model, model)

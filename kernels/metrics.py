@@ -1,0 +1,515 @@
+"""Kernels measuring how far simplified rings are from the raw rings they came from.
+
+Ring ``r`` of ``simp`` is the simplification of ring ``r`` of ``raw`` (or empty,
+when the ring was dropped). Simplification keeps the raw ring's vertex order: a
+simplified ring is a subsequence of its raw ring, except that the short-edge ->
+intersection rule moves some kept vertices. ``_match`` recovers that
+correspondence (the *anchor* of a simplified vertex is the raw vertex it equals,
+or -1 for a moved one), and both metrics use it to be fast, never to be right:
+
+* **Deviation** (largest distance from a vertex of one ring to the other ring).
+  The distance of a vertex to a ring is the minimum over the ring's edges of one
+  float64 point-segment formula over exact int64 pieces (``planar``). Candidate
+  edges from the correspondence bound every vertex in one linear pass; the vertex
+  with the largest bound is measured against *all* edges, then only vertices whose
+  bound still exceeds the best exact value. The result is exactly the maximum over
+  all vertex-edge pairs (the brute force), whatever the correspondence.
+* **XOR area** ``∫ |w_raw - w_simp| dA`` (winding numbers; the area of the
+  symmetric difference for simple rings). The runs between consecutive anchored
+  vertices bound pieces (``pieces``) that sum to ``raw - simp`` as cycles. A
+  piece's ``∫|w|`` is ``∫ |h| dt`` along its chord when its raw chain is monotone
+  along it (split where the chain crosses the chord), else the sweep
+  (``planar.winding_area``). Pieces that may overlap are measured together by the
+  sweep; the whole ring pair is swept when too many may.
+
+Preconditions (the caller checks them): |coords| < 2**30; both offset arrays are
+valid and have the same number of rings.
+"""
+
+import numpy as np
+from numba import prange, types
+
+from ._jit import kernel
+from ._types import B1, F64, I64, I64_1D, I64_2D
+from .pieces import (
+    _AP,
+    _AQ,
+    _AREA,
+    _H,
+    _KIND,
+    _KMAX,
+    _NF,
+    _NI,
+    _P,
+    _Q,
+    _UB,
+    _X0,
+    _X1,
+    _Y0,
+    _Y1,
+    _add_run_edges,
+    _find,
+    _neighbours_apart,
+    _others_conflicts,
+)
+from .planar import _point_segment, _to_ring, winding_area
+
+_W1 = types.int64[::1]
+_W2 = types.int64[:, ::1]
+_WF = types.float64[::1]
+_F64_OUT = types.float64[::1]
+_B1_OUT = types.boolean[::1]
+
+
+@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1))
+def _match(rc, r0, n, sc, s0, m, anchor):
+    """Anchor each simplified vertex to the raw vertex it equals, in order.
+
+    ``anchor[j]`` is a local raw index, strictly increasing over the anchored
+    vertices, or -1 (moved, or not found before the next one or two simplified
+    vertices). Returns False when the scan exceeds its linear budget.
+    """
+    k = 0
+    budget = 4 * n + 4 * m + 16
+    for j in range(m):
+        sx = sc[s0 + j, 0]
+        sy = sc[s0 + j, 1]
+        anchor[j] = -1
+        kk = k
+        while kk < n:
+            budget -= 1
+            if budget < 0:
+                return False
+            x = rc[r0 + kk, 0]
+            y = rc[r0 + kk, 1]
+            if x == sx and y == sy:
+                anchor[j] = kk
+                k = kk + 1
+                break
+            if j + 1 < m and x == sc[s0 + j + 1, 0] and y == sc[s0 + j + 1, 1]:
+                break
+            if j + 2 < m and x == sc[s0 + j + 2, 0] and y == sc[s0 + j + 2, 1]:
+                break
+            kk += 1
+    return True
+
+
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W2))
+def _ring_area(rc, r0, n, sc, s0, m, e):
+    """``∫ |w_raw - w_simp|`` of a whole ring pair by the sweep (any geometry)."""
+    ne = 0
+    for i in range(n):
+        i1 = i + 1 if i + 1 < n else 0
+        e[ne, 0] = rc[r0 + i, 0]
+        e[ne, 1] = rc[r0 + i, 1]
+        e[ne, 2] = rc[r0 + i1, 0]
+        e[ne, 3] = rc[r0 + i1, 1]
+        ne += 1
+    for j in range(m):
+        j1 = j + 1 if j + 1 < m else 0
+        e[ne, 0] = sc[s0 + j1, 0]
+        e[ne, 1] = sc[s0 + j1, 1]
+        e[ne, 2] = sc[s0 + j, 0]
+        e[ne, 3] = sc[s0 + j, 1]
+        ne += 1
+    return winding_area(e, ne)
+
+
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, I64, I64, I64, I64, _W2))
+def _piece_area(rc, r0, n, sc, s0, m, p, q, ap, aq, e):
+    """``∫ |w|`` of the piece: raw ``ap..aq``, then simplified ``q, q-1, ..., p``."""
+    ne = 0
+    for kk in range(ap, aq):
+        k = kk if kk < n else kk - n
+        k1 = k + 1 if k + 1 < n else 0
+        e[ne, 0] = rc[r0 + k, 0]
+        e[ne, 1] = rc[r0 + k, 1]
+        e[ne, 2] = rc[r0 + k1, 0]
+        e[ne, 3] = rc[r0 + k1, 1]
+        ne += 1
+    j = q
+    while j != p:
+        jb = j - 1 if j > 0 else m - 1
+        e[ne, 0] = sc[s0 + j, 0]
+        e[ne, 1] = sc[s0 + j, 1]
+        e[ne, 2] = sc[s0 + jb, 0]
+        e[ne, 3] = sc[s0 + jb, 1]
+        ne += 1
+        j = jb
+    return winding_area(e, ne)
+
+
+@kernel(F64(I64, I64, I64), inline="always")
+def _strip(dd, c0, c1):
+    """``∫ |C| dD`` over a step of ``dd`` from height c0 to c1 (split at C = 0)."""
+    f0 = abs(np.float64(c0))
+    f1 = abs(np.float64(c1))
+    if (c0 >= 0 and c1 >= 0) or (c0 <= 0 and c1 <= 0):
+        return np.float64(dd) * (f0 + f1) * 0.5
+    return np.float64(dd) * (f0 * f0 + f1 * f1) / (2.0 * (f0 + f1))
+
+
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, _W2))
+def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
+    """Measure run ``t`` (simplified p..q, raw ap..aq): deviation bound, piece area.
+
+    Fills the run's records: ``_UB`` the largest distance bound of its raw
+    vertices (to the simplified edges p..q) and ``_KMAX`` that vertex; ``_H`` a
+    radius around the segment s_p-s_q holding the piece; the box of that
+    neighbourhood; ``_KIND`` 1 if the piece has area. Returns the piece's ``∫|w|``.
+    """
+    b = _NI * t
+    p = wi[b + _P]
+    q = wi[b + _Q]
+    ap = wi[b + _AP]
+    aq = wi[b + _AQ]
+    ax = sc[s0 + p, 0]
+    ay = sc[s0 + p, 1]
+    bx = sc[s0 + q, 0]
+    by = sc[s0 + q, 1]
+    ex = bx - ax
+    ey = by - ay
+    len2 = ex * ex + ey * ey
+    single = q == (p + 1 if p + 1 < m else 0) and len2 > 0
+    area = 0.0
+    kmax = ap
+    mono = False
+    x0 = min(ax, bx)  # the box of the piece's vertices
+    y0 = min(ay, by)
+    x1 = max(ax, bx)
+    y1 = max(ay, by)
+    if single:
+        mono = True
+        acc = 0.0
+        d0 = np.int64(0)
+        c0 = np.int64(0)
+        cmax = np.int64(0)
+        kc = ap
+        e2max = np.int64(0)
+        ke = ap
+        for kk in range(ap + 1, aq + 1):
+            k = kk if kk < n else kk - n
+            vx = rc[r0 + k, 0]
+            vy = rc[r0 + k, 1]
+            x0 = min(x0, vx)
+            y0 = min(y0, vy)
+            x1 = max(x1, vx)
+            y1 = max(y1, vy)
+            qx = vx - ax
+            qy = vy - ay
+            d1 = qx * ex + qy * ey
+            c1 = ex * qy - ey * qx
+            if d1 <= 0:
+                e2 = qx * qx + qy * qy
+                if e2 > e2max:
+                    e2max = e2
+                    ke = k
+            elif d1 >= len2:
+                rx = vx - bx
+                ry = vy - by
+                e2 = rx * rx + ry * ry
+                if e2 > e2max:
+                    e2max = e2
+                    ke = k
+            elif abs(c1) > cmax:
+                cmax = abs(c1)
+                kc = k
+            if mono:
+                if d1 < d0:
+                    mono = False
+                else:
+                    acc += _strip(d1 - d0, c0, c1)
+                    d0 = d1
+                    c0 = c1
+        hc = np.float64(cmax) / np.sqrt(np.float64(len2))
+        he = np.sqrt(np.float64(e2max))
+        ub = hc if hc >= he else he
+        kmax = kc if hc >= he else ke
+        h = ub
+        area = acc / np.float64(len2) if mono else _piece_area(
+            rc, r0, n, sc, s0, m, p, q, ap, aq, e)
+    else:
+        ub = 0.0
+        for kk in range(ap, aq + 1):
+            k = kk if kk < n else kk - n
+            px = rc[r0 + k, 0]
+            py = rc[r0 + k, 1]
+            best = np.inf
+            j = p
+            while j != q:
+                j1 = j + 1 if j + 1 < m else 0
+                d = _point_segment(px, py, sc[s0 + j, 0], sc[s0 + j, 1],
+                                   sc[s0 + j1, 0], sc[s0 + j1, 1])
+                best = min(best, d)
+                j = j1
+            if best > ub:
+                ub = best
+                kmax = k
+        h = np.inf  # no band: the piece has no single chord
+        for kk in range(ap, aq + 1):
+            k = kk if kk < n else kk - n
+            x0 = min(x0, rc[r0 + k, 0])
+            y0 = min(y0, rc[r0 + k, 1])
+            x1 = max(x1, rc[r0 + k, 0])
+            y1 = max(y1, rc[r0 + k, 1])
+        j = p
+        while j != q:
+            x0 = min(x0, sc[s0 + j, 0])
+            y0 = min(y0, sc[s0 + j, 1])
+            x1 = max(x1, sc[s0 + j, 0])
+            y1 = max(y1, sc[s0 + j, 1])
+            j = j + 1 if j + 1 < m else 0
+        area = _piece_area(rc, r0, n, sc, s0, m, p, q, ap, aq, e)
+    wi[b + _X0] = x0
+    wi[b + _Y0] = y0
+    wi[b + _X1] = x1
+    wi[b + _Y1] = y1
+    wi[b + _KIND] = 0 if not area > 0.0 else (1 if single and mono else 2)
+    wi[b + _KMAX] = kmax
+    wf[_NF * t + _UB] = ub
+    wf[_NF * t + _H] = h
+    wf[_NF * t + _AREA] = area
+    return area
+
+
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64))
+def _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc):
+    """Exact largest distance from a raw vertex to the simplified ring.
+
+    Every run holds the largest bound of its raw vertices (their distance to the
+    run's simplified edges, a subset of the ring's). The vertex with the largest
+    bound is measured against all edges; if that does not settle it, runs whose
+    bound exceeds the best exact distance are revisited, largest first, and their
+    vertices whose bound exceeds it measured exactly.
+    """
+    top = 0
+    for t in range(1, npc):
+        if wf[_NF * t + _UB] > wf[_NF * top + _UB]:
+            top = t
+    bound = wf[_NF * top + _UB]
+    if bound == 0.0:
+        return 0.0
+    k = wi[_NI * top + _KMAX]
+    best = _to_ring(rc[r0 + k, 0], rc[r0 + k, 1], sc, s0, m)
+    if best == bound:
+        return best
+    keys = np.empty(npc, np.float64)
+    for t in range(npc):
+        keys[t] = -wf[_NF * t + _UB]
+    order = np.argsort(keys)
+    for i in range(npc):
+        t = order[i]
+        if wf[_NF * t + _UB] <= best:
+            break
+        b = _NI * t
+        p = wi[b + _P]
+        q = wi[b + _Q]
+        for kk in range(wi[b + _AP], wi[b + _AQ] + 1):
+            k = kk if kk < n else kk - n
+            px = rc[r0 + k, 0]
+            py = rc[r0 + k, 1]
+            u = np.inf
+            j = p
+            while True:
+                j1 = j + 1 if j + 1 < m else 0
+                u = min(u, _point_segment(px, py, sc[s0 + j, 0], sc[s0 + j, 1],
+                                          sc[s0 + j1, 0], sc[s0 + j1, 1]))
+                j = j1
+                if j == q:
+                    break
+            if u > best:
+                best = max(best, _to_ring(px, py, sc, s0, m))
+    return best
+
+
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, I64, _WF))
+def _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub):
+    """Exact largest distance from a simplified vertex to the raw ring.
+
+    Anchored vertices are raw vertices (distance 0). A moved vertex inside run
+    p..q is bounded by the raw edges ap..aq; the largest bounds are then measured
+    against all raw edges, largest first, until no bound exceeds the best.
+    """
+    top = -1
+    for t in range(npc):
+        b = _NI * t
+        p = wi[b + _P]
+        q = wi[b + _Q]
+        ap = wi[b + _AP]
+        aq = wi[b + _AQ]
+        j = p + 1 if p + 1 < m else 0
+        while j != q:
+            u = np.inf
+            for kk in range(ap, aq):
+                k = kk if kk < n else kk - n
+                k1 = k + 1 if k + 1 < n else 0
+                u = min(u, _point_segment(sc[s0 + j, 0], sc[s0 + j, 1],
+                                          rc[r0 + k, 0], rc[r0 + k, 1],
+                                          rc[r0 + k1, 0], rc[r0 + k1, 1]))
+            ub[j] = u
+            if top < 0 or u > ub[top]:
+                top = j
+            j = j + 1 if j + 1 < m else 0
+        ub[p] = 0.0
+    if top < 0 or ub[top] == 0.0:
+        return 0.0
+    best = _to_ring(sc[s0 + top, 0], sc[s0 + top, 1], rc, r0, n)
+    if best == ub[top]:
+        return best
+    keys = np.empty(m, np.float64)
+    for j in range(m):
+        keys[j] = -ub[j]
+    order = np.argsort(keys)
+    for i in range(m):
+        j = order[i]
+        if ub[j] <= best:
+            break
+        best = max(best, _to_ring(sc[s0 + j, 0], sc[s0 + j, 1], rc, r0, n))
+    return best
+
+
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64), inline="always")
+def _all_pairs(ac, a0, na, bc, b0, nb):
+    """Largest distance from a vertex of ring a to ring b, over all pairs."""
+    best = 0.0
+    for i in range(na):
+        best = max(best, _to_ring(ac[a0 + i, 0], ac[a0 + i, 1], bc, b0, nb))
+    return best
+
+
+@kernel(types.Tuple((F64, F64, F64, B1))(I64_2D, I64, I64, I64_2D, I64, I64, _W1,
+                                        _W1, _WF, _WF, _W2))
+def _compare_one(rc, r0, n, sc, s0, m, anchor, wi, wf, ub, e):
+    """(raw -> simp, simp -> raw, ∫|w_raw - w_simp|, linear) of one ring pair."""
+    if m == 0:
+        return np.nan, np.nan, _ring_area(rc, r0, n, sc, s0, m, e), False
+    matched = _match(rc, r0, n, sc, s0, m, anchor)
+    npc = 0
+    first = -1
+    if matched:
+        for j in range(m):
+            if anchor[j] >= 0:
+                npc += 1
+                if first < 0:
+                    first = j
+    if npc < 2:  # no usable correspondence: all pairs, and the sweep
+        return (_all_pairs(rc, r0, n, sc, s0, m), _all_pairs(sc, s0, m, rc, r0, n),
+                _ring_area(rc, r0, n, sc, s0, m, e), False)
+    total = 0.0
+    p = first
+    for t in range(npc):
+        q = p + 1 if p + 1 < m else 0
+        while anchor[q] < 0:
+            q = q + 1 if q + 1 < m else 0
+        b = _NI * t
+        wi[b + _P] = p
+        wi[b + _Q] = q
+        wi[b + _AP] = anchor[p]
+        wi[b + _AQ] = anchor[q] if anchor[q] > anchor[p] else anchor[q] + n
+        total += _run(rc, r0, n, sc, s0, m, wi, wf, t, e)
+        p = q
+    d1 = _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc)
+    d2 = _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub)
+    # runs that may overlap (neighbours no line separates, others too close)
+    # form components, each measured by one sweep over its pieces together
+    parent = anchor  # the anchors are not needed any more
+    for t in range(npc):
+        parent[t] = t
+    joined = 0
+    for t in range(npc):
+        tl = t - 1 if t > 0 else npc - 1
+        if (wi[_NI * t + _KIND] != 0 and wi[_NI * tl + _KIND] != 0
+                and not _neighbours_apart(rc, r0, n, sc, s0, m, wi, wf, t, npc)):
+            rt = _find(parent, t)
+            rl = _find(parent, tl)
+            if rt != rl:
+                parent[max(rt, rl)] = min(rt, rl)
+                joined += 1
+    if joined == npc - 1 or not _others_conflicts(rc, r0, n, sc, s0, m, wi, wf,
+                                                  parent, npc):
+        return d1, d2, _ring_area(rc, r0, n, sc, s0, m, e), False
+    lone = True
+    for t in range(npc):
+        if _find(parent, t) != t:
+            lone = False
+    if lone:
+        return d1, d2, total, True
+    # components in root order: count, then each root's runs' edges together
+    start = np.zeros(npc + 1, np.int64)
+    for t in range(npc):
+        parent[t] = _find(parent, t)
+        start[parent[t] + 1] += 1
+    if start[1] == npc:
+        return d1, d2, _ring_area(rc, r0, n, sc, s0, m, e), False
+    for t in range(npc):
+        start[t + 1] += start[t]
+    runs = np.empty(npc, np.int64)  # the runs of each root, in order
+    fill = start[:npc].copy()
+    for t in range(npc):
+        runs[fill[parent[t]]] = t
+        fill[parent[t]] += 1
+    for root in range(npc):
+        if start[root + 1] - start[root] < 2:
+            continue
+        ne = 0
+        for i in range(start[root], start[root + 1]):
+            t = runs[i]
+            total -= wf[_NF * t + _AREA]
+            ne = _add_run_edges(rc, r0, n, sc, s0, m, wi, t, root, e, ne)
+        total += winding_area(e, ne)
+    return d1, d2, total, True
+
+
+@kernel(
+    types.Tuple((_F64_OUT, _F64_OUT, _F64_OUT, _B1_OUT))(I64_2D, I64_1D, I64_2D,
+                                                         I64_1D),
+    parallel=True,
+)
+def compare_rings(raw, raw_offsets, simp, simp_offsets):
+    """Deviation both ways and XOR area of every (raw, simplified) ring pair.
+
+    Returns ``(raw_to_simp, simp_to_raw, xor_area, linear)``, each of shape (R,):
+    the largest distance (µm) from a raw vertex to the simplified ring and from a
+    simplified vertex to the raw ring (NaN where the simplified ring is empty);
+    ``∫ |w_raw - w_simp| dA`` in µm²; and whether the pass over the runs settled
+    the area (False: the sweep over the whole ring pair did).
+    """
+    n_rings = raw_offsets.shape[0] - 1
+    out1 = np.empty(n_rings, np.float64)
+    out2 = np.empty(n_rings, np.float64)
+    area = np.empty(n_rings, np.float64)
+    linear = np.zeros(n_rings, np.bool_)
+    n_all = raw.shape[0] + simp.shape[0]
+    n_chunks = min(n_rings, 64)
+    bounds = np.zeros(n_chunks + 1, np.int64)
+    r = 0
+    for c in range(1, n_chunks):
+        target = (n_all * c) // n_chunks
+        while r < n_rings and raw_offsets[r] + simp_offsets[r] < target:
+            r += 1
+        bounds[c] = r
+    bounds[n_chunks] = n_rings
+    for c in prange(n_chunks):
+        r0 = bounds[c]
+        r1 = bounds[c + 1]
+        size = 1
+        for rr in range(r0, r1):
+            size = max(size, raw_offsets[rr + 1] - raw_offsets[rr]
+                       + simp_offsets[rr + 1] - simp_offsets[rr])
+        anchor = np.empty(size + 1, np.int64)
+        wi = np.empty(_NI * (size + 1), np.int64)
+        wf = np.empty(_NF * (size + 1), np.float64)
+        ub = np.empty(size + 1, np.float64)
+        e = np.empty((size + 1, 4), np.int64)
+        for rr in range(r0, r1):
+            a0 = raw_offsets[rr]
+            b0 = simp_offsets[rr]
+            d1, d2, a, lin = _compare_one(
+                raw, a0, raw_offsets[rr + 1] - a0, simp, b0,
+                simp_offsets[rr + 1] - b0, anchor, wi, wf, ub, e,
+            )
+            out1[rr] = d1
+            out2[rr] = d2
+            area[rr] = a
+            linear[rr] = lin
+    return out1, out2, area, linear

@@ -1,0 +1,142 @@
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import reference_metrics as ref
+from vecslice._kernels.metrics import compare_rings
+from vecslice._kernels.planar import winding_area
+from vecslice._kernels.simplify import remove_degenerate_vertices, simplify_rings
+
+
+@st.composite
+def star_rings(draw, min_n=3, max_n=40):
+    """An integer ring around the origin: sorted angles, random radii (may be
+    jagged; with `wild` radii it can also self-intersect)."""
+    n = draw(st.integers(min_n, max_n))
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    scale = draw(st.sampled_from([50, 1000, 30000]))
+    ang = np.sort(rng.uniform(0, 2 * np.pi, n))
+    if draw(st.booleans()):
+        ang = rng.permutation(ang)  # wild: self-intersecting
+    rad = scale * rng.uniform(0.5, 1.0, n)
+    if draw(st.booleans()):  # fine jitter, as crossing rounding gives
+        rad += rng.integers(-2, 3, n)
+    pts = np.stack([rad * np.cos(ang), rad * np.sin(ang)], axis=1)
+    pts = np.rint(pts).astype(np.int64) + draw(st.integers(-10**6, 10**6))
+    return pts
+
+
+def _ragged(rings):
+    offs = np.zeros(len(rings) + 1, np.int64)
+    offs[1:] = np.cumsum([len(r) for r in rings])
+    coords = (np.concatenate(rings) if rings else np.zeros((0, 2))).astype(np.int64)
+    return coords.reshape(-1, 2), offs
+
+
+def _check(raw_rings, simp_rings):
+    rc, ro = _ragged(raw_rings)
+    sc, so = _ragged(simp_rings)
+    d1, d2, area, linear = compare_rings(rc, ro, sc, so)
+    for r, (a, b) in enumerate(zip(raw_rings, simp_rings, strict=True)):
+        if len(b) == 0:
+            assert np.isnan(d1[r]) and np.isnan(d2[r])
+            want = ref.winding_area([a])
+        else:
+            # bit-exact: the maximum over all vertex-segment pairs
+            assert d1[r] == ref.max_vertex_distance(a, b)
+            assert d2[r] == ref.max_vertex_distance(b, a)
+            want = ref.winding_area([a, b[::-1]])
+        assert area[r] == pytest.approx(float(want), rel=1e-9, abs=1e-6)
+    return linear
+
+
+@settings(max_examples=60)
+@given(st.lists(star_rings(max_n=30), min_size=1, max_size=2),
+       st.integers(0, 3000), st.integers(0, 400))
+def test_simplified_rings_match_brute_force(rings, max_res, max_dev):
+    rc, ro = _ragged(rings)
+    sc, so = simplify_rings(rc, ro, True, max_res, max_dev, 50000)
+    sc, so = remove_degenerate_vertices(sc, so)
+    simp = [sc[so[i]:so[i + 1]] for i in range(len(rings))]
+    _check(rings, simp)
+
+
+@settings(max_examples=40)
+@given(st.lists(st.tuples(star_rings(max_n=16), star_rings(max_n=16)), min_size=1,
+                max_size=2))
+def test_unrelated_rings_match_brute_force(pairs):
+    # no order correspondence at all: the exact fallbacks must still be exact
+    _check([a for a, _ in pairs], [b for _, b in pairs])
+
+
+@given(star_rings(max_n=12), st.integers(0, 11), st.integers(-300, 300),
+       st.integers(-300, 300))
+def test_one_vertex_moved(ring, i, dx, dy):
+    # a "simplified" ring that moved one vertex (like the intersection rule)
+    moved = ring.copy()
+    moved[i % len(ring)] += (dx, dy)
+    _check([ring], [moved])
+
+
+@settings(max_examples=40)
+@given(st.lists(star_rings(max_n=15), min_size=1, max_size=3))
+def test_winding_area_matches_exact_reference(rings):
+    edges = []
+    for r in rings:
+        for i in range(len(r)):
+            a, b = r[i], r[(i + 1) % len(r)]
+            edges.append([a[0], a[1], b[0], b[1]])
+    e = np.array(edges, np.int64)
+    got = winding_area(e, len(e))
+    assert got == pytest.approx(float(ref.winding_area(rings)), rel=1e-9, abs=1e-6)
+
+
+def test_square_with_a_pushed_vertex_deviates_by_d():
+    for d in (1, 7, 25, 1000):
+        raw = np.array([[0, 0], [1000, 0], [1000 + d, 500], [1000, 1000], [0, 1000]])
+        sq = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]])
+        d1, d2, area, linear = compare_rings(raw, np.array([0, 5]), sq,
+                                             np.array([0, 4]))
+        assert (d1[0], d2[0], area[0], linear[0]) == (d, 0.0, 500.0 * d, True)
+
+
+def test_dropped_ring_is_all_error_and_no_deviation():
+    raw = np.array([[0, 0], [300, 0], [0, 400]])
+    d1, d2, area, _ = compare_rings(raw, np.array([0, 3]), np.zeros((0, 2), np.int64),
+                                    np.array([0, 0]))
+    assert np.isnan(d1[0]) and np.isnan(d2[0]) and area[0] == 60000.0
+
+
+def test_winding_number_two_counts_twice():
+    sq = np.array([[0, 0], [10, 0], [10, 10], [0, 10]])
+    e = np.array([[*sq[i], *sq[(i + 1) % 4]] for i in range(4)] * 2, np.int64)
+    assert winding_area(e, len(e)) == 200.0
+
+
+def test_real_layers_match_manifold3d(meshes_dir):
+    # simple rings (w in {-1, 0, 1}): Positive + Negative fill is the XOR area
+    import manifold3d as m3
+    import shapely
+
+    import vecslice as vs
+
+    mesh = vs.load_mesh(meshes_dir / "Voron_Design_Cube_v7.stl")
+    z, _, _ = vs.layer_heights(mesh, vs.SliceSettings(layer_height=500))
+    raw = vs.slice_contours(mesh, z)
+    sc, so = simplify_rings(raw.coords, raw.ring_offsets, True, 2000, 100, 50000)
+    d1, d2, area, linear = compare_rings(raw.coords, raw.ring_offsets, sc, so)
+    checked = 0
+    for r in range(raw.n_rings):
+        a = raw.coords[raw.ring_offsets[r]:raw.ring_offsets[r + 1]]
+        b = sc[so[r]:so[r + 1]]
+        if len(b) < 3 or not (shapely.Polygon(a).is_valid
+                              and shapely.Polygon(b).is_valid):
+            continue
+        polys = [a.astype(float), b[::-1].astype(float)]
+        want = (m3.CrossSection(polys, m3.FillRule.Positive).area()
+                + m3.CrossSection(polys, m3.FillRule.Negative).area())
+        assert area[r] == pytest.approx(want, rel=1e-7, abs=1e-3)
+        checked += 1
+    assert checked > 50 and linear.mean() > 0.9

@@ -1,0 +1,219 @@
+import os
+import signal
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+import trimesh
+
+import vecslice as vs
+from vecslice.sweeps import METRIC_COLUMNS, _schedule_groups, _variant
+
+MESHES3 = ("Voron_Design_Cube_v7.stl", "teapot.stl", "pyramids.3mf")
+GRID6 = {"max_resolution": [200, 800, 2000], "max_deviation": [10, 50],
+         "layer_height": [400]}
+
+
+@pytest.fixture(scope="module")
+def box():
+    return vs.load_mesh(trimesh.creation.box((10, 10, 2)))
+
+
+@pytest.fixture(scope="module")
+def three(meshes_dir):
+    return {name: str(meshes_dir / name) for name in MESHES3}
+
+
+def _same_table(a, b):
+    a = a.drop(columns=["seconds", "prep_seconds"])
+    b = b.drop(columns=["seconds", "prep_seconds"])
+    assert list(a.columns) == list(b.columns)
+    import pandas.testing as pdt
+
+    pdt.assert_frame_equal(a, b, check_exact=True)
+
+
+def test_columns_and_rows(box):
+    t = vs.sweep({"box": box}, {"max_resolution": [200, 500], "layer_height": [100]})
+    names = ["mesh", *vs.SliceSettings.option_names(), *METRIC_COLUMNS, "error"]
+    assert list(t.columns) == names
+    for must in ("layers", "raw_vertices", "vertices", "parts", "max_deviation_um",
+                 "area_error_um2", "relative_area_error", "volume_error_mm3",
+                 "short_move_fraction", "moves_per_s", "seconds"):
+        assert must in t.columns
+    assert t["max_resolution"].tolist() == [200, 500]
+    assert (t["error"] == "").all() and (t["layers"] == 18).all()
+
+
+def test_rows_equal_slice_mesh_and_metrics(meshes_dir):
+    mesh = vs.load_mesh(meshes_dir / "Voron_Design_Cube_v7.stl")
+    grid = {"max_resolution": [300, 1500], "max_deviation": [20, 80],
+            "layer_height": [300], "slicing_tolerance": ["middle", "inclusive"]}
+    t = vs.sweep({"voron": mesh}, grid)
+    for row in t.itertuples():
+        s = vs.SliceSettings(**{k: getattr(row, k) for k in grid})
+        model = vs.slice_mesh(mesh, s)
+        assert (row.layers, row.vertices, row.parts) == (
+            model.n_layers, model.coords.shape[0], model.n_parts)
+        raw = vs.slice_contours(mesh, model.slice_z)
+        err, _ = vs.metrics.simplification_errors(raw, s)
+        assert row.raw_vertices == raw.coords.shape[0]
+        assert row.max_deviation_um == err.max_deviation_um
+        assert row.area_error_um2 == err.area_error_um2
+        moves = vs.metrics.move_stats(model)
+        assert row.short_move_fraction == moves.short_move_fraction
+        assert row.moves_per_s == moves.moves_per_s
+        assert row.volume_error_mm3 == vs.metrics.volume_error(model, mesh
+                                                               ).volume_error_mm3
+
+
+def test_variant_is_slice_mesh(meshes_dir):
+    mesh = vs.load_mesh(meshes_dir / "teapot.stl")  # open: stitching, open chains
+    for s in (vs.SliceSettings(), vs.SliceSettings(slicing_tolerance="exclusive",
+                                                   max_resolution=1000)):
+        sched = vs.layer_heights(mesh, s)
+        raw, stitched = vs.stitch(vs.slice_contours(mesh, sched[0], stitch=False))
+        got, _ = _variant(raw, stitched, sched, s)
+        want = vs.slice_mesh(mesh, s)
+        for f in ("coords", "ring_offsets", "part_offsets", "layer_offsets",
+                  "slice_z", "print_z", "thickness", "open_chains", "stitched_gaps",
+                  "open_coords"):
+            assert np.array_equal(getattr(got, f), getattr(want, f)), f
+
+
+def test_schedule_groups_share_raw_contours():
+    combos = [vs.SliceSettings(max_resolution=r, layer_height=h)
+              for h in (100, 200) for r in (100, 500, 900)]
+    groups = _schedule_groups(combos)
+    assert [[i for i, _ in g] for g in groups] == [[0, 1, 2], [3, 4, 5]]
+
+
+def test_bad_mesh_gives_error_rows(tmp_path, box):
+    junk = tmp_path / "junk.stl"
+    junk.write_bytes(b"solid nothing here\n" * 3)
+    t = vs.sweep([junk, box, tmp_path / "missing.obj"], {"max_deviation": [10, 30]})
+    assert t["mesh"].tolist() == ["junk.stl"] * 2 + ["mesh1"] * 2 + ["missing.obj"] * 2
+    bad = t[t["mesh"] != "mesh1"]
+    assert bad["error"].str.contains("MeshFileError").all()
+    assert bad[list(METRIC_COLUMNS)].isna().all().all()
+    good = t[t["mesh"] == "mesh1"]
+    assert (good["error"] == "").all() and good["vertices"].notna().all()
+
+
+@pytest.mark.parametrize("grid, match", [
+    ({"max_resolutoin": [1]}, r"unknown setting 'max_resolutoin'.*max_resolution"),
+    ({"max_deviation": [-1]}, "`max_deviation` must be >= 0"),
+    ({"slicing_tolerance": ["sideways"]}, "`slicing_tolerance` must be one of"),
+    ({"layer_height": [0.5]}, "layer_height"),
+    ({}, "at least one setting"),
+    ([], "at least one combination"),
+    ({"max_deviation": []}, "at least one value"),
+    ([{"max_deviation": 3}, "x"], r"`grid\[1\]` must be a dict"),
+    ("max_deviation", "must be a dict"),
+])
+def test_bad_grid_is_a_settings_error_before_any_work(grid, match, monkeypatch, box):
+    import vecslice.sweeps as sw
+
+    monkeypatch.setattr(sw, "_prepare", None)  # any work would fail differently
+    with pytest.raises(vs.SettingsError, match=match):
+        vs.sweep({"box": box}, grid)
+
+
+def test_bad_arguments(box):
+    with pytest.raises(vs.SettingsError, match="`speed_mm_s` must be finite and > 0"):
+        vs.sweep(box, {"max_deviation": 5}, speed_mm_s=-1)
+    with pytest.raises(vs.SettingsError, match="`controller_ms`"):
+        vs.sweep(box, {"max_deviation": 5}, controller_ms=float("inf"))
+    with pytest.raises(vs.InputValueError, match="unique names"):
+        vs.sweep(["a/x.stl", "b/x.stl"], {"max_deviation": 5})
+    with pytest.raises(vs.InputTypeError, match="`meshes` must be"):
+        vs.sweep(3, {"max_deviation": 5})
+    with pytest.raises(vs.InputValueError, match="at least one mesh"):
+        vs.sweep([], {"max_deviation": 5})
+    with pytest.raises(vs.InputTypeError, match="`client` must be a distributed"):
+        vs.sweep(box, {"max_deviation": 5}, client="localhost")
+    with pytest.raises(vs.InputValueError, match="`scale` must name meshes"):
+        vs.sweep({"a": box}, {"max_deviation": 5}, scale={"b": 2.0})
+
+
+def test_missing_dependencies_name_the_extra(monkeypatch, box):
+    monkeypatch.setitem(sys.modules, "pandas", None)
+    with pytest.raises(ImportError, match=r"pip install 'vecslice\[sweep\]'"):
+        vs.sweep(box, {"max_deviation": 5})
+
+
+def test_import_vecslice_does_not_import_pandas_or_dask():
+    import subprocess
+
+    code = ("import sys, vecslice; "
+            "print(any(m in sys.modules for m in ('pandas', 'dask', 'distributed')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True,
+                         text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+def test_progress_bar(box, capsys):
+    t = vs.sweep(box, {"max_deviation": [5, 10]}, progress=True)
+    assert len(t) == 2
+    assert "sweep" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as c, \
+            distributed.Client(c) as client:
+        yield c, client
+
+
+def test_distributed_table_equals_local(three, cluster):
+    _, client = cluster
+    local = vs.sweep(three, GRID6)
+    remote = vs.sweep(three, GRID6, client=client)
+    assert len(local) == 3 * 6 and (local["error"] == "").all()
+    _same_table(local, remote)
+
+
+def test_killed_worker_mid_sweep_still_completes(three, cluster):
+    c, client = cluster
+    grid = {**GRID6, "layer_height": [300, 400, 500]}  # 9 tasks of 6 rows
+    local = vs.sweep(three, grid)
+    killed = []
+
+    def kill_one_busy_worker():
+        deadline = time.time() + 120
+        while time.time() < deadline and not killed:
+            busy = [w for w, keys in client.processing().items() if keys]
+            if busy:
+                pids = client.run(os.getpid, workers=[busy[0]])
+                pid = pids[busy[0]]
+                os.kill(pid, signal.SIGKILL)
+                killed.append(pid)
+            time.sleep(0.05)
+
+    th = threading.Thread(target=kill_one_busy_worker)
+    th.start()
+    remote = vs.sweep(three, grid, client=client)
+    th.join()
+    assert killed, "no worker was busy to kill"
+    assert (remote["error"] == "").all()
+    _same_table(local, remote)
+
+
+def test_adaptive_and_cura_rows(box):
+    t = vs.sweep(box, [{"adaptive_layers": True}, {"compat": "cura"}, {}])
+    assert (t["error"] == "").all()
+    for k, s in enumerate([vs.SliceSettings(adaptive_layers=True),
+                           vs.SliceSettings(compat="cura"), vs.SliceSettings()]):
+        model = vs.slice_mesh(box, s)
+        assert (t["layers"][k], t["vertices"][k]) == (model.n_layers,
+                                                      model.coords.shape[0])
+    assert np.isnan(t["max_deviation_um"][1]) and t["max_deviation_um"][2] == 0.0
+
+
+def test_max_layers_gives_error_rows(box):
+    t = vs.sweep(box, {"max_layers": [5], "layer_height": [100]})
+    assert t["error"][0].startswith("SettingsError") and np.isnan(t["layers"][0])

@@ -1,0 +1,525 @@
+"""``vs.sweep``: many meshes x a grid of settings -> one tidy table, run on Dask.
+
+One Dask task per (mesh, layer schedule): the mesh is loaded and its topology
+built once (a task of its own), the raw contours are cut once per schedule, and
+every combination that differs only in simplification or union settings reuses
+them on the same worker. Only result rows travel back. pandas and dask are
+imported when :func:`sweep` is called, never by ``import vecslice``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from difflib import get_close_matches
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vecslice.errors import (
+    InputTypeError,
+    InputValueError,
+    SettingsError,
+    VecsliceError,
+)
+from vecslice.settings import SliceSettings
+
+__all__ = ["METRIC_COLUMNS", "XY_SETTINGS", "sweep"]
+
+XY_SETTINGS = (
+    "max_resolution", "max_deviation", "max_area_deviation",
+    "minimum_polygon_circumference", "union_overlapping_volumes",
+)
+"""Settings that leave the layer schedule and the raw contours unchanged."""
+
+METRIC_COLUMNS = (
+    "layers", "raw_vertices", "vertices", "parts", "max_deviation_um",
+    "area_error_um2", "relative_area_error", "volume_error_mm3",
+    "short_move_fraction", "moves_per_s", "seconds",
+    # more detail
+    "raw_rings", "rings", "dropped_rings", "rings_beyond_max_deviation",
+    "raw_to_simplified_um", "simplified_to_raw_um", "xor_sweep_rings",
+    "relative_volume_error", "mesh_volume_mm3", "stack_height_um", "height_um",
+    "open_chains", "moves", "shortest_move_um", "move_p1_um", "move_p5_um",
+    "move_p50_um", "move_p50_ms", "prep_seconds",
+)
+"""Columns after ``mesh`` and the settings, in order (``error`` comes last)."""
+
+_INT_COLUMNS = ("layers", "raw_vertices", "vertices", "parts", "raw_rings", "rings",
+                "dropped_rings", "rings_beyond_max_deviation", "xor_sweep_rings",
+                "stack_height_um", "height_um", "open_chains", "moves")
+
+
+def _require() -> tuple[Any, Any]:
+    try:
+        import dask
+        import pandas
+    except ImportError as exc:
+        raise ImportError(
+            f"vecslice.sweep needs pandas and dask ({exc.name} is missing); "
+            "install them with: pip install 'vecslice[sweep]'"
+        ) from None
+    return pandas, dask
+
+
+# --- input checks (all before any work) ------------------------------------
+
+
+def _sources(meshes: Any) -> list[tuple[str, Any]]:
+    from vecslice.mesh import Mesh
+
+    def name_of(i: int, m: Any) -> str:
+        return Path(m).name if isinstance(m, (str, os.PathLike)) else f"mesh{i}"
+
+    if isinstance(meshes, (str, os.PathLike, Mesh)):
+        meshes = [meshes]
+    if isinstance(meshes, Mapping):
+        items = [(k, v) for k, v in meshes.items()]
+        for k, _ in items:
+            if not isinstance(k, str):
+                raise InputTypeError(
+                    f"`meshes` keys must be names (str); got {type(k).__name__} {k!r}"
+                )
+    elif isinstance(meshes, Sequence):
+        items = [(name_of(i, m), m) for i, m in enumerate(meshes)]
+    else:
+        raise InputTypeError(
+            "`meshes` must be a path, a vecslice.Mesh, a list of them or a dict "
+            f"name -> either; got {type(meshes).__name__}"
+        )
+    if not items:
+        raise InputValueError("`meshes` must hold at least one mesh; got none")
+    seen: set[str] = set()
+    for name, m in items:
+        if not isinstance(m, (str, os.PathLike, Mesh)):
+            raise InputTypeError(
+                f"`meshes` entry {name!r} must be a path or a vecslice.Mesh; "
+                f"got {type(m).__name__}"
+            )
+        if name in seen:
+            raise InputValueError(
+                f"`meshes` must have unique names; got {name!r} twice "
+                "(pass a dict name -> mesh)"
+            )
+        seen.add(name)
+    return items
+
+
+def _combinations(grid: Any) -> list[SliceSettings]:
+    names = SliceSettings.option_names()
+    if isinstance(grid, Mapping):
+        if not grid:
+            raise SettingsError("`grid` must name at least one setting; got {}")
+        axes = []
+        for key, values in grid.items():
+            _check_name(key, names)
+            if isinstance(values, (str, bytes)) or not isinstance(
+                values, (Sequence, np.ndarray, range)
+            ):
+                values = [values]
+            values = list(values)
+            if not values:
+                raise SettingsError(f"`grid[{key!r}]` must list at least one value; "
+                                    "got an empty list")
+            axes.append((key, values))
+        combos: list[dict[str, Any]] = [{}]
+        for key, values in axes:
+            combos = [{**c, key: v} for c in combos for v in values]
+    elif isinstance(grid, Sequence) and not isinstance(grid, (str, bytes)):
+        if not grid:
+            raise SettingsError("`grid` must hold at least one combination; got []")
+        combos = []
+        for i, c in enumerate(grid):
+            if not isinstance(c, Mapping):
+                raise SettingsError(
+                    f"`grid[{i}]` must be a dict of settings; got {type(c).__name__}"
+                )
+            for key in c:
+                _check_name(key, names)
+            combos.append(dict(c))
+    else:
+        raise SettingsError(
+            "`grid` must be a dict setting -> list of values or a list of dicts; "
+            f"got {type(grid).__name__}"
+        )
+    out = []
+    for c in combos:
+        try:
+            out.append(SliceSettings(**{k: _plain(v) for k, v in c.items()}))
+        except VecsliceError as exc:
+            raise SettingsError(f"`grid` combination {c!r} is invalid: {exc}") from None
+    return out
+
+
+def _check_name(key: object, names: tuple[str, ...]) -> None:
+    if not isinstance(key, str) or key not in names:
+        close = get_close_matches(str(key), names, n=1)
+        hint = f"; did you mean `{close[0]}`?" if close else ""
+        raise SettingsError(
+            f"`grid` must name SliceSettings fields ({', '.join(names)}); "
+            f"got unknown setting {key!r}{hint}"
+        )
+
+
+def _plain(v: Any) -> Any:
+    """Numpy scalars from a grid as Python scalars."""
+    return v.item() if isinstance(v, np.generic) else v
+
+
+def _scales(scale: Any, items: list[tuple[str, Any]]) -> dict[str, float]:
+    from vecslice.mesh import _check_scale
+
+    if isinstance(scale, Mapping):
+        unknown = sorted(set(scale) - {n for n, _ in items})
+        if unknown:
+            raise InputValueError(
+                f"`scale` must name meshes of the sweep; got unknown {unknown[0]!r}"
+            )
+        return {n: _check_scale(scale.get(n, 1.0)) for n, _ in items}
+    s = _check_scale(scale)
+    return {n: s for n, _ in items}
+
+
+# --- the work (runs on the workers) ------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Prepared:
+    """A loaded mesh with its edge topology, or why it could not be loaded."""
+
+    mesh: Any
+    topology: tuple[Any, ...] | None
+    error: str
+    seconds: float
+
+
+def _describe(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}"
+
+
+def _prepare(source: Any, scale: float) -> _Prepared:
+    """Load ``source`` (path or Mesh) and build its topology, once per mesh."""
+    from vecslice.mesh import load_mesh
+    from vecslice.slicing import _mesh_topology
+
+    t = time.perf_counter()
+    try:
+        mesh = source if not isinstance(source, (str, os.PathLike)) else load_mesh(
+            source, scale=scale)
+        topology = _mesh_topology(mesh)
+    except Exception as exc:  # a bad mesh gives error rows, the sweep goes on
+        return _Prepared(None, None, _describe(exc), time.perf_counter() - t)
+    return _Prepared(mesh, topology, "", time.perf_counter() - t)
+
+
+def _variant(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
+             settings: SliceSettings, kept: Any = None) -> tuple[Any, Any]:
+    """:func:`vecslice.slice_mesh`'s stages after the raw contours, and the errors.
+
+    Returns ``(model, errors)``; ``model`` is what ``slice_mesh`` returns for
+    these settings (tests check it).
+    """
+    from vecslice.metrics import contour_errors
+    from vecslice.parts import apply_slicing_tolerance, make_parts
+    from vecslice.paths import LayerPaths
+    from vecslice.pipeline import _clean_closed, _cleaned
+    from vecslice.storage import SlicedModel
+
+    slice_z, print_z, thickness = schedule
+    coords, offsets = _clean_closed(raw, settings, kept)
+    errors = contour_errors(
+        LayerPaths._trusted(raw.coords, raw.ring_offsets, raw.layer_offsets),
+        LayerPaths._trusted(coords, offsets, raw.layer_offsets.copy()),
+    )
+    loops = _cleaned(raw, settings, coords, offsets)
+    loops = apply_slicing_tolerance(loops, settings.slicing_tolerance)
+    parts = make_parts(loops,
+                       union_overlapping_volumes=settings.union_overlapping_volumes)
+    open_chains = raw.open.rings_per_layer() if raw.open is not None else None
+    model = SlicedModel.from_parts(parts, slice_z=slice_z, print_z=print_z,
+                                   thickness=thickness, open=loops.open,
+                                   open_chains=open_chains, stitched_gaps=stitched)
+    return model, errors
+
+
+def _rows(prep: _Prepared, mesh_index: int, name: str,
+          combos: list[tuple[int, SliceSettings]], speed: float,
+          controller_ms: float) -> list[dict[str, Any]]:
+    """All rows of one (mesh, layer schedule) task."""
+    from vecslice._validate import check_layer_count
+    from vecslice.layers import layer_heights
+    from vecslice.metrics import move_stats, volume_error
+    from vecslice.pipeline import _kept_loops, slice_mesh
+    from vecslice.slicing import _contours
+    from vecslice.stitch import stitch
+
+    rows = []
+    if prep.error:
+        return [_row(mesh_index, name, i, s, None, prep.error) for i, s in combos]
+    t = time.perf_counter()
+    mesh = prep.mesh
+    first = combos[0][1]
+    cura = getattr(first, "compat", "vecslice") != "vecslice"
+    try:
+        schedule = layer_heights(mesh, first)
+        limit = getattr(first, "max_layers", None)
+        if limit is not None:
+            check_layer_count(len(schedule[0]), limit, "layers in the schedule",
+                              "SliceSettings(max_layers={n})")
+        if not cura:
+            raw = _contours(mesh.vertices, mesh.faces, schedule[0], False,
+                            prep.topology)
+            raw, stitched = stitch(raw)
+    except Exception as exc:
+        return [_row(mesh_index, name, i, s, None, _describe(exc)) for i, s in combos]
+    prep_seconds = prep.seconds + time.perf_counter() - t
+    kept: dict[int, Any] = {}  # perimeter filters, by minimum circumference
+    mesh_volume = mesh.volume
+    for i, s in combos:
+        t = time.perf_counter()
+        try:
+            if cura:  # CuraEngine's own stages: no raw-contour correspondence
+                model, err = slice_mesh(mesh, s), None
+            else:
+                c = s.minimum_polygon_circumference
+                if c not in kept:
+                    kept[c] = _kept_loops(raw, c)
+                model, err = _variant(raw, stitched, schedule, s, kept[c])
+            moves = move_stats(model, speed_mm_s=speed, controller_ms=controller_ms,
+                               percentiles=(1, 5, 50))
+            vol = volume_error(model, mesh, _mesh_volume=mesh_volume)
+        except Exception as exc:
+            rows.append(_row(mesh_index, name, i, s, None, _describe(exc)))
+            continue
+        nan = math.nan
+        m = {
+            "layers": model.n_layers,
+            "raw_vertices": int(raw.coords.shape[0]) if err else nan,
+            "vertices": int(model.coords.shape[0]),
+            "parts": model.n_parts,
+            "max_deviation_um": err.max_deviation_um if err else nan,
+            "area_error_um2": err.area_error_um2 if err else nan,
+            "relative_area_error": err.relative_area_error if err else nan,
+            "volume_error_mm3": vol.volume_error_mm3,
+            "short_move_fraction": moves.short_move_fraction,
+            "moves_per_s": moves.moves_per_s,
+            "raw_rings": raw.n_rings if err else nan,
+            "rings": model.n_rings,
+            "dropped_rings": int(err.dropped.sum()) if err else nan,
+            "rings_beyond_max_deviation": (err.rings_beyond(s.max_deviation)
+                                           if err else nan),
+            "raw_to_simplified_um": _nanmax(err.raw_to_simplified_um) if err else nan,
+            "simplified_to_raw_um": _nanmax(err.simplified_to_raw_um) if err else nan,
+            "xor_sweep_rings": int((~err.linear).sum()) if err else nan,
+            "relative_volume_error": vol.relative_volume_error,
+            "mesh_volume_mm3": vol.mesh_volume_mm3,
+            "stack_height_um": vol.stack_height_um,
+            "height_um": vol.height_um,
+            "open_chains": int(model.open_chains.sum()),
+            "moves": moves.moves,
+            "shortest_move_um": moves.shortest_um,
+            "move_p1_um": moves.length_percentiles_um[0],
+            "move_p5_um": moves.length_percentiles_um[1],
+            "move_p50_um": moves.length_percentiles_um[2],
+            "move_p50_ms": moves.duration_percentiles_ms[2],
+            "prep_seconds": prep_seconds,
+        }
+        m["seconds"] = time.perf_counter() - t
+        rows.append(_row(mesh_index, name, i, s, m, ""))
+    return rows
+
+
+def _nanmax(a: Any) -> float:
+    kept = a[~np.isnan(a)]
+    return float(kept.max()) if kept.size else math.nan
+
+
+def _row(mesh_index: int, name: str, i: int, s: SliceSettings,
+         metrics: dict[str, Any] | None, error: str) -> dict[str, Any]:
+    row: dict[str, Any] = {"_mesh": mesh_index, "_combo": i, "mesh": name}
+    row.update({k: getattr(s, k) for k in SliceSettings.option_names()})
+    for c in METRIC_COLUMNS:
+        row[c] = math.nan if metrics is None else metrics[c]
+    row["error"] = error
+    return row
+
+
+# --- the engine ---------------------------------------------------------------
+
+
+def _schedule_groups(
+    combos: list[SliceSettings],
+) -> list[list[tuple[int, SliceSettings]]]:
+    """Combinations grouped by everything but the XY settings (the schedule)."""
+    groups: dict[tuple[Any, ...], list[tuple[int, SliceSettings]]] = {}
+    for i, s in enumerate(combos):
+        key = tuple((k, getattr(s, k)) for k in SliceSettings.option_names()
+                    if k not in XY_SETTINGS)
+        groups.setdefault(key, []).append((i, s))
+    return list(groups.values())
+
+
+def _local_scheduler() -> str:
+    """Dask's threads, unless numba's only threading layer is unsafe for them."""
+    import numba
+
+    from vecslice._kernels.metrics import compare_rings
+
+    z = np.zeros((0, 2), np.int64)
+    compare_rings(z, np.zeros(1, np.int64), z, np.zeros(1, np.int64))
+    try:
+        layer = numba.threading_layer()
+    except ValueError:
+        return "threads"
+    return "sync" if layer == "workqueue" else "threads"
+
+
+def sweep(
+    meshes: Any,
+    grid: Any,
+    *,
+    speed_mm_s: float = 60,
+    controller_ms: float = 1.0,
+    client: Any = None,
+    progress: bool = False,
+    scale: float | Mapping[str, float] = 1.0,
+) -> Any:
+    """Slice many meshes at a grid of settings and measure every result.
+
+    Parameters
+    ----------
+    meshes : path, Mesh, list of them, or dict name -> path or Mesh
+        The models. Paths are loaded on the workers (:func:`vecslice.load_mesh`);
+        a list names each mesh by its file name (``mesh<i>`` for Mesh objects).
+    grid : dict or list of dict
+        ``{setting: [values, ...]}`` sweeps the full product of the lists (a bare
+        value counts as a list of one); a list of dicts gives the combinations
+        explicitly. Keys are :class:`vecslice.SliceSettings` fields (µm); unset
+        fields keep their defaults.
+    speed_mm_s : float, default 60
+        Contour speed for the move metrics, mm/s.
+    controller_ms : float, default 1.0
+        The controller's time per move, ms (moves shorter than this are short).
+    client : distributed.Client, optional
+        Run the tasks on this Dask cluster; default: Dask's threaded scheduler on
+        this machine (the kernels release the GIL).
+    progress : bool, default False
+        Show progress: a tqdm bar over the tasks, or dask's progress display
+        with a client.
+    scale : float or dict name -> float, default 1.0
+        File units to millimetres for meshes given as paths (25.4 for inches).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per (mesh, combination), in the order given: ``mesh``, every
+        SliceSettings field, then :data:`METRIC_COLUMNS` and ``error`` (empty, or
+        why the mesh could not be loaded or sliced; its metrics are then NaN).
+        ``max_deviation_um`` is the model's largest measured deviation of a
+        simplified ring from its raw ring (exact); ``area_error_um2`` the summed
+        ring XOR area and ``relative_area_error`` that over the net raw area;
+        ``volume_error_mm3`` the staircase error (:func:`vecslice.metrics.
+        volume_error`); ``short_move_fraction`` and ``moves_per_s`` come from
+        :func:`vecslice.metrics.move_stats`; ``seconds`` is the wall time of the
+        combination's own stages (``prep_seconds``: its task's load, topology and
+        raw contours). With a client the table is the same apart from times.
+        With ``compat="cura"`` the model comes from CuraEngine's own stages
+        (:func:`vecslice.slice_mesh`) and the contour-error columns are NaN.
+
+    Raises
+    ------
+    SettingsError
+        An unknown setting, a bad value, an empty grid, or a bad speed or
+        controller time — before any work starts.
+    ImportError
+        If pandas or dask is missing (``pip install 'vecslice[sweep]'``).
+
+    Examples
+    --------
+    >>> import trimesh, vecslice as vs
+    >>> box = vs.load_mesh(trimesh.creation.box((10, 10, 2)))
+    >>> t = vs.sweep({"box": box}, {"max_resolution": [200, 500]})
+    >>> t[["mesh", "max_resolution", "layers", "vertices", "max_deviation_um"]]
+      mesh  max_resolution  layers  vertices  max_deviation_um
+    0  box             200      18        72               0.0
+    1  box             500      18        72               0.0
+    """
+    from vecslice.moves import _check_number
+
+    pd, dask = _require()
+    items = _sources(meshes)
+    combos = _combinations(grid)
+    speed = _check_number(speed_mm_s, "speed_mm_s", "mm/s", zero=False)
+    ctrl = _check_number(controller_ms, "controller_ms", "ms", zero=True)
+    scales = _scales(scale, items)
+    if not isinstance(progress, bool):
+        raise InputTypeError(f"`progress` must be a bool; got {progress!r}")
+    groups = _schedule_groups(combos)
+    tasks = []
+    for mi, (name, source) in enumerate(items):
+        prep = dask.delayed(_prepare, pure=False)(source, scales[name])
+        for group in groups:
+            tasks.append((mi, name, group, dask.delayed(_rows, pure=False)(
+                prep, mi, name, group, speed, ctrl)))
+    if client is None:
+        results = _run_local(dask, [t[3] for t in tasks], progress)
+    else:
+        results = _run_client(client, tasks, progress)
+    rows = [r for rs in results for r in rs]
+    table = pd.DataFrame(rows).sort_values(["_mesh", "_combo"], kind="stable")
+    table = table.drop(columns=["_mesh", "_combo"]).reset_index(drop=True)
+    for c in _INT_COLUMNS:  # whole numbers stay integers unless a row failed
+        if not table[c].isna().any():
+            table[c] = table[c].astype(np.int64)
+    return table
+
+
+def _run_local(dask: Any, delayed: list[Any], progress: bool) -> list[Any]:
+    scheduler = _local_scheduler()
+    if not progress:
+        return list(dask.compute(*delayed, scheduler=scheduler))
+    from dask.callbacks import Callback
+    from tqdm import tqdm
+
+    keys = {d.key for d in delayed}
+    bar = tqdm(total=len(delayed), desc="sweep", unit="task")
+
+    class _Bar(Callback):  # type: ignore[misc]
+        def _posttask(self, key: Any, *args: Any) -> None:
+            if key in keys:
+                bar.update(1)
+
+    try:
+        with _Bar():
+            return list(dask.compute(*delayed, scheduler=scheduler))
+    finally:
+        bar.close()
+
+
+def _run_client(client: Any, tasks: list[Any], progress: bool) -> list[Any]:
+    try:
+        from distributed import Client
+        from distributed import progress as show
+    except ImportError:
+        _require()
+        raise
+    if not isinstance(client, Client):
+        raise InputTypeError(
+            "`client` must be a distributed.Client or None; got "
+            f"{type(client).__name__}"
+        )
+    futures = client.compute([t[3] for t in tasks], retries=2)
+    if progress:
+        show(futures)
+    results = []
+    for (mi, name, group, _), fut in zip(tasks, futures, strict=True):
+        try:
+            results.append(fut.result())
+        except Exception as exc:  # e.g. KilledWorker: that task's rows say why
+            results.append([_row(mi, name, i, s, None, _describe(exc))
+                            for i, s in group])
+    return results
