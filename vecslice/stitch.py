@@ -132,6 +132,9 @@ def stitch(
     gap1 = min(check_int(max_gap_in_order, "max_gap_in_order", minimum=0), _GAP_CLAMP)
     gap2 = min(check_int(max_gap, "max_gap", minimum=0), _GAP_CLAMP)
     chains = lp.open if lp.open is not None else LayerPaths.empty(lp.n_layers)
+    if chains.n_rings == 0:  # nothing to join (and no kernel to compile on a first run)
+        out = LayerPaths._trusted(lp.coords, lp.ring_offsets, lp.layer_offsets, chains)
+        return Stitched(out, np.zeros(lp.n_layers, dtype=np.int64))
     cc, cr, cl, oc, orr, ol, n_stitched = stitch_chains(
         chains.coords, chains.ring_offsets, chains.layer_offsets, gap1, gap2
     )
