@@ -332,15 +332,16 @@ class Mesh:
         2. **Winding**: faces joined across edges used by exactly two faces form a
            shell; each orientable shell is made consistent (neighbours traverse
            their shared edge in opposite directions).
-        3. **Facing**: a closed shell (its edge uses cancel) faces by its nesting
-           depth, the number of other closed shells it lies inside (exact ray
-           parity of its vertices; shells that cross each other are not nested):
-           outward (positive signed volume) at even depth, inward at odd depth.
-           So an inside-out part is turned outward, the void of a hollow part
-           stays a void (and is turned inward if the file had it outward), and a
-           body inside the void is solid again. An open shell keeps the
-           orientation most of its faces had. Non-orientable shells are left as
-           they are.
+        3. **Facing**: each outermost closed shell (its edge uses cancel, and no
+           other closed shell contains it — decided by exact ray parity of its
+           vertices; shells that cross each other are not nested) faces outward
+           (positive signed volume), and the closed shells nested in it are turned
+           with it: a nested shell keeps its winding relative to the shell around
+           it. Wound opposite to it, it is a cavity (the void of a hollow part
+           stays a void); wound the same way, it is a body overlapping it (merged
+           by the NonZero union); an inside-out part is turned over as a whole.
+           An open shell keeps the orientation most of its faces had.
+           Non-orientable shells are left as they are.
 
         Vertices no face uses any more are dropped. Non-manifold edges, holes and
         self-intersections are not changed (:func:`check_mesh` reports them). The
@@ -511,9 +512,10 @@ def load_mesh(
         File units to millimetres (25.4 for inches, 1000 for metres). A 3MF
         file's own ``unit`` is applied first, so leave it at 1 for 3MF.
     repair : bool, default True
-        Remove duplicate faces and orient every shell consistently: closed
-        shells outward, or inward where they are cavities inside another shell
-        (see :meth:`Mesh.repaired`). ``False`` keeps the file's windings.
+        Remove duplicate faces and orient every shell consistently: each part
+        outward, the shells nested in it turned with it, so cavities (wound
+        opposite to the shell around them) stay cavities (see
+        :meth:`Mesh.repaired`). ``False`` keeps the file's windings.
         Ignored with ``compat="cura"``.
     compat : {'vecslice', 'cura'}, default 'vecslice'
         ``'cura'`` reads the mesh as CuraEngine does (STL only, or a trimesh

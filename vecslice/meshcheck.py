@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice._kernels.vertices import clean_mesh
-from vecslice.nesting import nesting_depth
+from vecslice.nesting import outermost_container
 
 __all__ = ["LoadInfo", "MeshReport", "build_report", "clean_arrays"]
 
@@ -45,11 +45,11 @@ class LoadInfo:
         whole closed shells turned to face the right way).
     shells_reversed : int
         Closed shells repair turned over as a whole (most of their faces
-        reversed): inside-out parts, and voids whose shell faced outward.
+        reversed): inside-out parts, with the shells nested in them.
     cavities_kept : int
-        Closed shells facing inward after the last repair because they lie
-        inside another closed shell (odd nesting depth): voids such as the
-        inside of a hollow ball, kept empty.
+        Closed shells facing inward after the last repair: shells inside another
+        closed shell and wound opposite to it, such as the void of a hollow
+        ball, kept empty.
     """
 
     source: str = "arrays"
@@ -215,7 +215,7 @@ class Orientation(NamedTuple):
 
     flip: NDArray[np.bool_]  # (F,) faces to reverse
     shells_reversed: int  # closed shells with most of their faces reversed
-    cavities: int  # closed shells facing inward (odd nesting depth)
+    cavities: int  # closed shells facing inward after the repair
 
 
 def orient_faces(
@@ -229,13 +229,16 @@ def orient_faces(
     graph split every orientable shell into two opposite classes, so one flip mask
     orients all shells at once.
 
-    Then each *closed* shell (every edge traversed equally often in both
-    directions) faces by its nesting depth, the number of closed shells it lies
-    inside (:func:`vecslice.nesting.nesting_depth`): outward (positive signed
-    volume) at even depth, inward at odd depth, so the void of a hollow part stays
-    a void and a body floating in it stays solid. Each open shell keeps whichever
-    orientation the majority of its faces had. Non-orientable shells are left as
-    they are.
+    Each shell first takes the orientation the majority of its faces had. Then
+    each outermost *closed* shell (every edge traversed equally often in both
+    directions, inside no other closed shell; see
+    :func:`vecslice.nesting.outermost_container`) faces outward (positive signed
+    volume), and every closed shell nested in it is turned with it: a nested shell
+    keeps its winding relative to the shells around it. So the void of a hollow
+    part (wound opposite to the part) stays a void, a body inside another wound
+    the same way stays a body (the NonZero union merges it), and an inside-out
+    part is turned over as a whole. Open shells keep their majority orientation.
+    Non-orientable shells are left as they are.
     """
     n = faces.shape[0]
     e = _edges(faces, vertices.shape[0])
@@ -264,14 +267,19 @@ def orient_faces(
     n_flip = np.bincount(shell, weights=flip, minlength=n_shells)
     whole = np.bincount(shell, weights=orientable, minlength=n_shells) == size
     closed = ~is_open & whole
-    odd = nesting_depth(vertices, faces, shell, closed) % 2 == 1
-    turn = closed & np.where(odd, vol > 0, vol < 0)
-    invert = np.where(is_open, 2 * n_flip > size, turn)
+    # each shell as the majority of its faces had it, then every nesting tree of
+    # closed shells turned outward as a whole (by its outermost shell)
+    majority = 2 * n_flip > size
+    vol_as_written = np.where(majority, -vol, vol)
+    root = outermost_container(vertices, faces, shell, closed)
+    invert = majority ^ (closed & (vol_as_written[root] < 0))
     final = (flip ^ invert[shell]) & orientable
     # turned over as a whole: most of the closed shell's faces end up reversed
     n_final = np.bincount(shell, weights=final, minlength=n_shells)
+    vol_final = np.bincount(shell, weights=face_volumes(vertices, faces)
+                            * np.where(final, -1.0, 1.0), minlength=n_shells)
     return Orientation(final, int((closed & (2 * n_final > size)).sum()),
-                       int((closed & odd).sum()))
+                       int((closed & (vol_final < 0)).sum()))
 
 
 @dataclass(frozen=True, slots=True, eq=False)

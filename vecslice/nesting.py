@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["ON_SURFACE", "nesting_depth", "points_in_shell"]
+__all__ = ["ON_SURFACE", "nesting_depth", "outermost_container", "points_in_shell"]
 
 ON_SURFACE = -1
 """Result of :func:`points_in_shell` for a point on the shell's surface."""
@@ -177,6 +177,67 @@ def _box_pairs(
     return a[ok], b[ok]
 
 
+def _parents(
+    vertices: NDArray[np.int64],
+    faces: NDArray[np.int64],
+    shell: NDArray[np.int64],
+    closed: NDArray[np.bool_],
+) -> NDArray[np.int64]:
+    """The smallest closed shell containing each closed shell (-1: none, or open).
+
+    See :func:`nesting_depth` for what "containing" means.
+    """
+    n = closed.shape[0]
+    parent_of = np.full(n, -1, dtype=np.int64)
+    ids = np.flatnonzero(closed)
+    if ids.shape[0] < 2:
+        return parent_of
+    order = np.argsort(shell, kind="stable")
+    starts = np.searchsorted(shell[order], np.arange(n + 1))
+    corner = vertices[faces[order]]  # (F, 3, 3), faces grouped by shell
+    # every label 0 .. S-1 has faces, so each reduceat segment is one shell
+    lo = np.minimum.reduceat(corner.min(axis=1), starts[:-1])[ids]
+    hi = np.maximum.reduceat(corner.max(axis=1), starts[:-1])[ids]
+    pa, pb = _box_pairs(lo, hi)
+    same = ((lo[pa] == lo[pb]) & (hi[pa] == hi[pb])).all(axis=1)
+    pa, pb = pa[~same], pb[~same]
+    size = (hi - lo).astype(np.float64).prod(axis=1)
+    by = np.lexsort((size[pb], pa))  # for each shell, smallest container first
+    parent = np.full(ids.shape[0], -1, dtype=np.int64)
+    for i, j in zip(pa[by].tolist(), pb[by].tolist(), strict=True):
+        if parent[i] >= 0:
+            continue
+        a, b = ids[i], ids[j]
+        fa = faces[order[starts[a] : starts[a + 1]]]
+        r = points_in_shell(_samples(vertices[np.unique(fa)]),
+                            corner[starts[b] : starts[b + 1]])
+        if (r == 1).any() and not (r == 0).any():
+            parent[i] = j
+    parent_of[ids] = np.where(parent >= 0, ids[np.maximum(parent, 0)], -1)
+    return parent_of
+
+
+def _walk_up(parent: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Depth and outermost ancestor of every node of a forest of parent links.
+
+    Containers have strictly larger boxes, so parent links never cycle.
+    """
+    n = parent.shape[0]
+    depth = np.full(n, -1, dtype=np.int64)
+    root = np.arange(n, dtype=np.int64)
+    for i in range(n):
+        chain = []
+        while i >= 0 and depth[i] < 0:
+            chain.append(i)
+            i = int(parent[i])
+        base, top = (int(depth[i]), int(root[i])) if i >= 0 else (-1, chain[-1])
+        for k in reversed(chain):
+            base += 1
+            depth[k] = base
+            root[k] = top
+    return depth, root
+
+
 def nesting_depth(
     vertices: NDArray[np.int64],
     faces: NDArray[np.int64],
@@ -206,41 +267,18 @@ def nesting_depth(
     ndarray of shape (S,), int64
         Nesting depth; 0 for open shells and outermost closed shells.
     """
-    n = closed.shape[0]
-    depth = np.zeros(n, dtype=np.int64)
-    ids = np.flatnonzero(closed)
-    if ids.shape[0] < 2:
-        return depth
-    order = np.argsort(shell, kind="stable")
-    starts = np.searchsorted(shell[order], np.arange(n + 1))
-    corner = vertices[faces[order]]  # (F, 3, 3), faces grouped by shell
-    # every label 0 .. S-1 has faces, so each reduceat segment is one shell
-    lo = np.minimum.reduceat(corner.min(axis=1), starts[:-1])[ids]
-    hi = np.maximum.reduceat(corner.max(axis=1), starts[:-1])[ids]
-    pa, pb = _box_pairs(lo, hi)
-    same = ((lo[pa] == lo[pb]) & (hi[pa] == hi[pb])).all(axis=1)
-    pa, pb = pa[~same], pb[~same]
-    size = (hi - lo).astype(np.float64).prod(axis=1)
-    by = np.lexsort((size[pb], pa))  # for each shell, smallest container first
-    parent = np.full(ids.shape[0], -1, dtype=np.int64)
-    for i, j in zip(pa[by].tolist(), pb[by].tolist(), strict=True):
-        if parent[i] >= 0:
-            continue
-        a, b = ids[i], ids[j]
-        fa = faces[order[starts[a] : starts[a + 1]]]
-        r = points_in_shell(_samples(vertices[np.unique(fa)]),
-                            corner[starts[b] : starts[b + 1]])
-        if (r == 1).any() and not (r == 0).any():
-            parent[i] = j
-    d = np.full(ids.shape[0], -1, dtype=np.int64)
-    for i in range(ids.shape[0]):  # boxes strictly contain: parents never cycle
-        chain = []
-        while i >= 0 and d[i] < 0:
-            chain.append(i)
-            i = parent[i]
-        base = d[i] if i >= 0 else -1
-        for k in reversed(chain):
-            base += 1
-            d[k] = base
-    depth[ids] = d
-    return depth
+    return _walk_up(_parents(vertices, faces, shell, closed))[0]
+
+
+def outermost_container(
+    vertices: NDArray[np.int64],
+    faces: NDArray[np.int64],
+    shell: NDArray[np.int64],
+    closed: NDArray[np.bool_],
+) -> NDArray[np.int64]:
+    """The outermost closed shell containing each shell (itself if none contains it).
+
+    Same arguments and containment rule as :func:`nesting_depth`; open shells are
+    their own outermost container.
+    """
+    return _walk_up(_parents(vertices, faces, shell, closed))[1]

@@ -51,11 +51,9 @@ def test_hollow_ball_keeps_its_void():
 @pytest.mark.parametrize(("label", "outer_in", "inner_in", "flipped", "reversed_"), [
     ("as written", False, True, 0, 0),
     ("inside out", True, False, 2 * 1280, 2),
-    ("void wound outward", False, False, 1280, 1),
-    ("ball wound inward", True, True, 1280, 1),
 ])
-def test_every_winding_of_a_hollow_ball_repairs_to_the_same(label, outer_in, inner_in,
-                                                            flipped, reversed_):
+def test_a_void_wound_opposite_its_ball_stays_a_void(label, outer_in, inner_in,
+                                                      flipped, reversed_):
     m = vs.load_mesh(shells(sphere(20, inward=outer_in), sphere(10, inward=inner_in)))
     li = m.load_info
     assert (li.faces_flipped, li.shells_reversed, li.cavities_kept) == (
@@ -66,10 +64,37 @@ def test_every_winding_of_a_hollow_ball_repairs_to_the_same(label, outer_in, inn
     assert vs.Mesh.from_arrays(m.vertices, m.faces[1280:]).volume < 0
 
 
-def test_ball_inside_the_void_is_solid():
-    m = vs.load_mesh(shells(sphere(20), sphere(10, inward=True),
-                            sphere(5, inward=True)))
-    assert m.load_info.cavities_kept == 1 and m.load_info.shells_reversed == 1
+@pytest.mark.parametrize(("label", "both_in", "flipped", "reversed_"), [
+    ("both outward", False, 0, 0),
+    ("both inward", True, 2 * 1280, 2),
+])
+def test_a_body_inside_another_wound_the_same_way_stays_a_body(label, both_in,
+                                                               flipped, reversed_):
+    # a closed shell inside another is a cavity only when wound opposite to it: a
+    # body wound like the one around it overlaps it, and the NonZero union merges
+    # them (an inside-out pair is turned over as a whole)
+    m = vs.load_mesh(shells(sphere(20, inward=both_in), sphere(10, inward=both_in)))
+    li = m.load_info
+    assert (li.faces_flipped, li.shells_reversed, li.cavities_kept) == (
+        flipped, reversed_, 0)
+    assert vs.Mesh.from_arrays(m.vertices, m.faces[:1280]).volume > 0
+    assert vs.Mesh.from_arrays(m.vertices, m.faces[1280:]).volume > 0
+    solid = sliced_volume_mm3(vs.load_mesh(shells(sphere(20))))
+    assert sliced_volume_mm3(m) == solid
+    assert vs.slice_mesh(m, SETTINGS.replace(union_overlapping_volumes=False)
+                         ).layer_areas().sum() < vs.slice_mesh(m, SETTINGS
+                                                               ).layer_areas().sum()
+
+
+@pytest.mark.parametrize("inside_out", [False, True])
+def test_ball_inside_the_void_is_solid(inside_out):
+    # a ball in the void of a hollow ball, each shell wound opposite to the one
+    # around it (outward, inward, outward); inside out, all three are turned
+    m = vs.load_mesh(shells(sphere(20, inward=inside_out),
+                            sphere(10, inward=not inside_out),
+                            sphere(5, inward=inside_out)))
+    li = m.load_info
+    assert (li.cavities_kept, li.shells_reversed) == (1, 3 if inside_out else 0)
     assert vs.Mesh.from_arrays(m.vertices, m.faces[2560:]).volume > 0  # depth 2
     ball = sliced_volume_mm3(vs.load_mesh(shells(sphere(5))))
     assert abs(sliced_volume_mm3(m) - (29_069 + ball)) <= 1  # each rounded
