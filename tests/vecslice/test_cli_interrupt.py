@@ -71,11 +71,12 @@ def test_ctrl_c_while_kernels_compile_stops_at_once(tmp_path):
 
 
 def test_ctrl_c_while_a_kernel_runs_stops_at_once(tmp_path):
-    """A long slice (12,700 layers of 2 µm) with warm kernels."""
-    path = MESHES / "plate_holes.STL"
+    """A long slice (3DBenchy in 48,000 layers of 1 µm: tens of seconds of
+    kernels, however fast the machine) with warm kernels."""
+    path = MESHES / "3DBenchy.3mf"
     if not path.exists():
         pytest.skip(f"{path} not found")
-    proc = _start([path, "--layer-height", "0.002", "--no-progress", "-o", "p.npz"],
+    proc = _start([path, "--layer-height", "0.001", "--no-progress", "-o", "p.npz"],
                   tmp_path)
     _wait_for_line(proc.stdout, "model ", timeout=240)  # loaded: slicing starts
     time.sleep(1.0)
