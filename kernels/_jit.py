@@ -14,7 +14,7 @@ import time
 
 from numba import njit
 
-__all__ = ["compile_listeners", "kernel"]
+__all__ = ["compile_listeners", "kernel", "run_serial"]
 
 _lock = threading.RLock()
 
@@ -81,3 +81,14 @@ def kernel(signature=None, **options):
         return disp
 
     return decorate
+
+
+def run_serial(fn, n_chunks):
+    """Call ``fn(c)`` for ``c`` in ``range(n_chunks)``, in order; return the results.
+
+    The default ``run`` of the kernel drivers that split their work into chunks
+    (a chunk is one call of a plain ``nogil`` kernel); the library passes a
+    thread pool instead (``vecslice._threads.run_chunks``), which gives the
+    parallelism of ``parallel=True`` without its compile time.
+    """
+    return [fn(c) for c in range(n_chunks)]

@@ -1,4 +1,4 @@
-"""One kernel from faces to loops: crossings, segments, linking and grouping fused.
+"""From faces to loops: crossings, segments, linking and grouping fused.
 
 :func:`trace_contours` gives what the step kernels give chained
 (:func:`.crossings.crossing_points`, :func:`.crossings.face_segments`,
@@ -8,13 +8,19 @@ computes each crossing point when the loop reaches it (every crossing is the sta
 of exactly one segment, so each point is computed once) and writes it straight to
 its place in the output. Scratch: a byte per segment and per output vertex, and
 two numbers per face.
+
+:func:`trace_contours` is a short Python driver over plain kernels: the closed
+loops are traced in chunks of planes given to a ``run`` function (a thread pool in
+the library), and the open ends are paired and the open chains traced only when
+the mesh has edges without a twin. A first run of a closed mesh therefore compiles
+two small kernels, and no parfor.
 """
 
 import numpy as np
-from numba import prange, types
+from numba import types
 
-from ._jit import kernel
-from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+from ._jit import kernel, run_serial
+from ._types import B1_1D, B1_1D_OUT, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 from .crossings import DOWN_EDGE, UP_EDGE
 
 _OUT = types.Tuple(
@@ -28,7 +34,7 @@ def _code(l0, l1, l2, k):
     return (1 if k < l0 else 0) + (2 if k < l1 else 0) + (4 if k < l2 else 0)
 
 
-@kernel(inline="always")
+@kernel(types.UniTuple(I64, 2)(I64_2D, I64, I64, I64))
 def _point(vertices, p, q, zk):
     """Crossing of edge p-q with plane zk, from its lower end (as crossing_points).
 
@@ -56,119 +62,53 @@ def _point(vertices, p, q, zk):
     return xa + qx, ya + qy
 
 
-@kernel(inline="always")
-def _paired(in_seg, in_pair, out_face, s):
-    """Face of the segment joined to open end ``s`` (-1: the chain ends there)."""
-    i = np.searchsorted(in_seg, s)
-    j = in_pair[i]
-    return -1 if j < 0 else out_face[j]
-
-
 _U8_W = types.uint8[::1]
 _I32_W = types.int32[::1]
 _I64_W = types.int64[::1]
+_I32_1D = types.Array(types.int32, 1, "C", readonly=True)
+_U8_1D = types.Array(types.uint8, 1, "C", readonly=True)
 
 
-@kernel(
-    types.void(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, _I32_W, _I64_W,
-               _I64_W, _I64_W, _I64_W, _I64_W, _I64_W, _U8_W, types.int64[:, ::1],
-               _U8_W, _I64_W, _U8_W),
-    parallel=True,
-)
-def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
-                  face_offsets, layer_start, bounds, in_seg, in_pair, out_face,
-                  out_visited, out_coords, out_ring_start, out_rings_of,
-                  out_broken):
-    """Trace the closed loops of planes ``bounds[c]:bounds[c + 1]``, chunks in parallel.
+@kernel(I64(I64_1D, I64_1D, I64_1D, I64))
+def _paired(in_seg, in_pair, out_face, s):
+    """Face of the segment joined to open end ``s`` (-1: the chain ends there).
 
-    Faces are scanned in order and a loop is traced from every segment not yet
-    visited, writing its points at its plane's cursor (which starts at
-    ``layer_start[out_layer[k]]``) and flagging its first point in
-    ``out_ring_start``.
+    ``s`` is one of ``in_seg`` (sorted, distinct): found by binary search.
+    """
+    lo = 0
+    hi = in_seg.shape[0]
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if in_seg[mid] < s:
+            lo = mid + 1
+        else:
+            hi = mid
+    j = in_pair[lo]
+    return -1 if j < 0 else out_face[j]
+
+
+_PLAN = types.Tuple((
+    types.int32[::1], I64_1D_OUT, I64_1D_OUT,  # face_lo, face_offsets, per_plane
+    I64_1D_OUT, I64_1D_OUT, I64_1D_OUT,  # in_seg, in_key, in_k
+    I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT,  # out_seg, out_face, out_key, out_k
+))
+
+
+@kernel(_PLAN(I64_2D, I64_1D, I64_1D, I64))
+def _segment_plan(faces, twin, vert_layer, n_planes):
+    """Where each face's segments go, segments per plane, and the open ends.
+
+    Returns ``(face_lo, face_offsets, per_plane, in_seg, in_key, in_k, out_seg,
+    out_face, out_key, out_k)``: face ``f`` crosses planes ``face_lo[f]`` and up,
+    its segments are ``face_offsets[f]:face_offsets[f + 1]``; ``per_plane[k]`` is
+    the number of segments on plane ``k``; the ``in_*`` (``out_*``) arrays list, in
+    segment order, the segments that start (end) on an edge without a twin, with
+    their crossing keyed as (edge vertices, plane).
     """
     n_faces = faces.shape[0]
+    n_vertices = vert_layer.shape[0]
     down_of = np.array(DOWN_EDGE, dtype=np.int64)
     up_of = np.array(UP_EDGE, dtype=np.int64)
-    n_chunks = bounds.shape[0] - 1
-    for c in prange(n_chunks):
-        k0 = bounds[c]
-        k1 = bounds[c + 1]
-        if k1 <= k0:
-            continue
-        cursor = np.empty(k1 - k0, dtype=np.int64)
-        for k in range(k0, k1):
-            cursor[k - k0] = layer_start[out_layer[k]]
-        for f0 in range(n_faces):
-            lo0 = np.int64(face_lo[f0])
-            hi0 = lo0 + face_offsets[f0 + 1] - face_offsets[f0]
-            for k in range(max(lo0, k0), min(hi0, k1)):
-                if out_visited[face_offsets[f0] + k - lo0]:
-                    continue
-                zk = z[k]
-                pos = cursor[k - k0]
-                out_ring_start[pos] = 1
-                out_rings_of[k] += 1
-                f = f0
-                while True:
-                    p0 = faces[f, 0]
-                    p1 = faces[f, 1]
-                    p2 = faces[f, 2]
-                    l0 = vert_layer[p0]
-                    l1 = vert_layer[p1]
-                    l2 = vert_layer[p2]
-                    s = face_offsets[f] + k - min(l0, min(l1, l2))
-                    if out_visited[s]:
-                        break
-                    out_visited[s] = 1
-                    code = _code(l0, l1, l2, k)
-                    jd = down_of[code]
-                    ju = up_of[code]
-                    # jd is unpredictable along a loop: select, don't branch
-                    pa = p0 if jd == 0 else (p1 if jd == 1 else p2)
-                    pb = p1 if jd == 0 else (p2 if jd == 1 else p0)
-                    x, y = _point(vertices, pa, pb, zk)
-                    out_coords[pos, 0] = x
-                    out_coords[pos, 1] = y
-                    pos += 1
-                    tw = twin[3 * f + ju]
-                    if tw >= 0:
-                        f = tw // 3
-                    else:
-                        f = _paired(in_seg, in_pair, out_face, s)
-                        if f < 0:  # cannot happen: only chains end
-                            out_broken[k] = 1
-                            break
-                cursor[k - k0] = pos
-
-
-@kernel(_OUT(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, I64))
-def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks):
-    """Closed loops and open chains of a mesh cut at every plane, grouped by layer.
-
-    Returns ``(coords, ring_offsets, layer_offsets, open_coords, open_ring_offsets,
-    open_layer_offsets)``: the closed loops, then the open chains, each grouped by
-    output layer ``out_layer[k]`` of plane ``k``. Equal to chaining
-    ``crossing_points``, ``face_segments``, ``link_segments`` and ``group_rings``:
-    a closed loop starts at its first segment (segments ordered by face, then
-    plane), loops of a layer come in that order, open chains start where no
-    segment ends and come in the order of their first segment. Ends on edges
-    without a twin are joined by crossing (edge and plane) as
-    :func:`.loops.pair_open_ends` joins them.
-
-    Closed loops are traced in parallel over chunks of planes: a loop lies in one
-    plane, and each plane's vertices have their own range of the output.
-
-    Preconditions: ``z`` sorted; ``vert_layer[v]`` the number of planes strictly
-    below vertex ``v``; ``twin`` from :func:`.topology.half_edge_twins`;
-    ``out_layer`` a permutation of ``range(len(z))``; |coordinates| < 2**30.
-    """
-    n_faces = faces.shape[0]
-    n_planes = z.shape[0]
-    n_vertices = vertices.shape[0]
-    down_of = np.array(DOWN_EDGE, dtype=np.int64)
-    up_of = np.array(UP_EDGE, dtype=np.int64)
-
-    # plane range of every face, segments per plane, open ends
     face_lo = np.empty(n_faces, dtype=np.int32)
     face_offsets = np.empty(n_faces + 1, dtype=np.int64)
     per_plane = np.zeros(n_planes + 1, dtype=np.int64)
@@ -195,10 +135,6 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks):
                         n_out += 1
     for k in range(n_planes):
         per_plane[k + 1] += per_plane[k]
-    n_seg = face_offsets[n_faces]
-    visited = np.zeros(n_seg, dtype=np.uint8)
-
-    # open ends, in segment order, keyed by their crossing (edge, plane)
     in_seg = np.empty(n_in, dtype=np.int64)
     in_key = np.empty(n_in, dtype=np.int64)
     in_k = np.empty(n_in, dtype=np.int64)
@@ -235,7 +171,19 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks):
                     out_key[o] = min(p, q) * n_vertices + max(p, q)
                     out_k[o] = k
                     o += 1
-    # the k-th end at a crossing (by segment) joins the k-th start there
+    return (face_lo, face_offsets, per_plane[:n_planes].copy(), in_seg, in_key, in_k,
+            out_seg, out_face, out_key, out_k)
+
+
+@kernel(types.Tuple((I64_1D_OUT, B1_1D_OUT))(I64_1D, I64_1D, I64_1D, I64_1D))
+def _pair_ends(in_key, in_k, out_key, out_k):
+    """Join open ends: the k-th end at a crossing (by segment) joins the k-th start.
+
+    Returns ``(in_pair, out_has_prev)``: ``in_pair[i]`` the end joined to start
+    ``i`` (-1: none), ``out_has_prev[o]`` whether end ``o`` was joined.
+    """
+    n_in = in_key.shape[0]
+    n_out = out_key.shape[0]
     in_pair = np.full(n_in, -1, dtype=np.int64)
     out_has_prev = np.zeros(n_out, dtype=np.bool_)
     if n_in > 0 and n_out > 0:
@@ -259,8 +207,28 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks):
                 out_has_prev[b] = True
                 i += 1
                 o += 1
+    return in_pair, out_has_prev
 
-    # open chains (serial; few): sizes first, then the points
+
+_OPEN = types.Tuple((I64_2D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT))
+
+
+@kernel(_OPEN(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, _I32_1D, I64_1D,
+              I64_1D, I64_1D, I64_1D, I64_1D, B1_1D, _U8_W))
+def _trace_open(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
+                face_offsets, in_seg, in_pair, out_face, out_k, out_has_prev,
+                out_visited):
+    """The open chains, grouped by output layer, and their segments marked visited.
+
+    Returns ``(open_coords, open_offsets, open_rings, chain_segs)``: a chain starts
+    at every end without a predecessor, in the order of those ends; ``open_rings``
+    are the layer offsets of the chains, ``chain_segs[k]`` the number of segments
+    of plane ``k`` in chains.
+    """
+    n_planes = z.shape[0]
+    n_out = out_face.shape[0]
+    down_of = np.array(DOWN_EDGE, dtype=np.int64)
+    up_of = np.array(UP_EDGE, dtype=np.int64)
     n_chains = 0
     for b in range(n_out):
         if not out_has_prev[b]:
@@ -281,8 +249,8 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks):
             l0 = vert_layer[faces[f, 0]]
             l1 = vert_layer[faces[f, 1]]
             l2 = vert_layer[faces[f, 2]]
-            s = face_offsets[f] + k - min(l0, min(l1, l2))
-            visited[s] = 1
+            s = face_offsets[f] + k - face_lo[f]
+            out_visited[s] = 1
             n += 1
             tw = twin[3 * f + up_of[_code(l0, l1, l2, k)]]
             f = tw // 3 if tw >= 0 else _paired(in_seg, in_pair, out_face, s)
@@ -323,7 +291,7 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks):
             if tw >= 0:
                 f = tw // 3
                 continue
-            s = face_offsets[f] + k - min(l0, min(l1, l2))
+            s = face_offsets[f] + k - face_lo[f]
             g = _paired(in_seg, in_pair, out_face, s)
             if g < 0:
                 x, y = _point(vertices, faces[f, ju], faces[f, (ju + 1) % 3], zk)
@@ -331,69 +299,168 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks):
                 open_coords[pos, 1] = y
                 break
             f = g
+    return open_coords, open_offsets, open_rings, chain_segs
+
+
+@kernel(
+    types.void(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, _I32_1D, I64_1D,
+               I64_1D, I64, I64, I64_1D, I64_1D, I64_1D, _U8_W, I64_2D_OUT, _U8_W,
+               _I64_W, _U8_W),
+)
+def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
+                  face_offsets, layer_start, k0, k1, in_seg, in_pair, out_face,
+                  out_visited, out_coords, out_ring_start, out_rings_of,
+                  out_broken):
+    """Trace the closed loops of planes ``k0:k1`` (one chunk; chunks may run at once).
+
+    Faces are scanned in order and a loop is traced from every segment not yet
+    visited, writing its points at its plane's cursor (which starts at
+    ``layer_start[out_layer[k]]``) and flagging its first point in
+    ``out_ring_start``. A chunk writes only its planes' segments and vertices.
+    """
+    if k1 <= k0:
+        return
+    n_faces = faces.shape[0]
+    down_of = np.array(DOWN_EDGE, dtype=np.int64)
+    up_of = np.array(UP_EDGE, dtype=np.int64)
+    cursor = np.empty(k1 - k0, dtype=np.int64)
+    for k in range(k0, k1):
+        cursor[k - k0] = layer_start[out_layer[k]]
+    for f0 in range(n_faces):
+        lo0 = np.int64(face_lo[f0])
+        hi0 = lo0 + face_offsets[f0 + 1] - face_offsets[f0]
+        for k in range(max(lo0, k0), min(hi0, k1)):
+            if out_visited[face_offsets[f0] + k - lo0]:
+                continue
+            zk = z[k]
+            pos = cursor[k - k0]
+            out_ring_start[pos] = 1
+            out_rings_of[k] += 1
+            f = f0
+            while True:
+                p0 = faces[f, 0]
+                p1 = faces[f, 1]
+                p2 = faces[f, 2]
+                l0 = vert_layer[p0]
+                l1 = vert_layer[p1]
+                l2 = vert_layer[p2]
+                s = face_offsets[f] + k - min(l0, min(l1, l2))
+                if out_visited[s]:
+                    break
+                out_visited[s] = 1
+                code = _code(l0, l1, l2, k)
+                jd = down_of[code]
+                ju = up_of[code]
+                # jd is unpredictable along a loop: select, don't branch
+                pa = p0 if jd == 0 else (p1 if jd == 1 else p2)
+                pb = p1 if jd == 0 else (p2 if jd == 1 else p0)
+                x, y = _point(vertices, pa, pb, zk)
+                out_coords[pos, 0] = x
+                out_coords[pos, 1] = y
+                pos += 1
+                tw = twin[3 * f + ju]
+                if tw >= 0:
+                    f = tw // 3
+                else:
+                    f = _paired(in_seg, in_pair, out_face, s)
+                    if f < 0:  # cannot happen: only chains end
+                        out_broken[k] = 1
+                        break
+            cursor[k - k0] = pos
+
+
+def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
+                   run=run_serial):
+    """Closed loops and open chains of a mesh cut at every plane, grouped by layer.
+
+    Returns ``(coords, ring_offsets, layer_offsets, open_coords, open_ring_offsets,
+    open_layer_offsets)``: the closed loops, then the open chains, each grouped by
+    output layer ``out_layer[k]`` of plane ``k``. Equal to chaining
+    ``crossing_points``, ``face_segments``, ``link_segments`` and ``group_rings``:
+    a closed loop starts at its first segment (segments ordered by face, then
+    plane), loops of a layer come in that order, open chains start where no
+    segment ends and come in the order of their first segment. Ends on edges
+    without a twin are joined by crossing (edge and plane) as
+    :func:`.loops.pair_open_ends` joins them.
+
+    Closed loops are traced in up to ``n_chunks`` chunks of consecutive planes
+    with about equal numbers of segments: a loop lies in one plane, and each
+    plane's vertices have their own range of the output. ``run(fn, n)`` calls
+    ``fn(c)`` for every chunk ``c`` (in any order, or at once: e.g.
+    ``vecslice._threads.run_chunks``); by default one after another.
+
+    Preconditions: ``z`` sorted; ``vert_layer[v]`` the number of planes strictly
+    below vertex ``v``; ``twin`` from :func:`.topology.half_edge_twins`;
+    ``out_layer`` a permutation of ``range(len(z))``; |coordinates| < 2**30.
+    """
+    n_planes = z.shape[0]
+    (face_lo, face_offsets, per_plane, in_seg, in_key, in_k, out_seg, out_face,
+     out_key, out_k) = _segment_plan(faces, twin, vert_layer, n_planes)
+    n_seg = int(face_offsets[-1])
+    visited = np.zeros(n_seg, dtype=np.uint8)
+    if in_seg.shape[0] and out_seg.shape[0]:
+        in_pair, out_has_prev = _pair_ends(in_key, in_k, out_key, out_k)
+    else:
+        in_pair = np.full(in_seg.shape[0], -1, dtype=np.int64)
+        out_has_prev = np.zeros(out_seg.shape[0], dtype=np.bool_)
+    if out_seg.shape[0]:
+        open_coords, open_offsets, open_rings, chain_segs = _trace_open(
+            vertices, faces, twin, vert_layer, z, out_layer, face_lo,
+            face_offsets, in_seg, in_pair, out_face, out_k, out_has_prev, visited)
+    else:
+        open_coords = np.empty((0, 2), dtype=np.int64)
+        open_offsets = np.zeros(1, dtype=np.int64)
+        open_rings = np.zeros(n_planes + 1, dtype=np.int64)
+        chain_segs = np.zeros(n_planes, dtype=np.int64)
 
     # closed loops: every other segment starts one vertex; each plane's vertices
     # go to its output layer's range, in the order the loops are found
     layer_start = np.zeros(n_planes + 1, dtype=np.int64)
-    for k in range(n_planes):
-        layer_start[out_layer[k] + 1] = per_plane[k] - chain_segs[k]
-    for k in range(n_planes):
-        layer_start[k + 1] += layer_start[k]
-    n_closed = layer_start[n_planes]
+    layer_start[out_layer + 1] = per_plane - chain_segs
+    np.cumsum(layer_start, out=layer_start)
+    n_closed = int(layer_start[n_planes])
     coords = np.empty((n_closed, 2), dtype=np.int64)
     ring_start = np.zeros(n_closed, dtype=np.uint8)
     rings_of = np.zeros(n_planes, dtype=np.int64)
     broken = np.zeros(n_planes, dtype=np.uint8)
-    # chunks of consecutive planes with about equal numbers of segments
-    n_chunks = max(1, min(n_planes, n_chunks))
-    bounds = np.empty(n_chunks + 1, dtype=np.int64)
+    # chunks of consecutive planes with about equal numbers of segments: chunk c
+    # starts at the first plane with at least n_seg * c // n_chunks segments below
+    n_chunks = max(1, min(n_planes, int(n_chunks)))
+    below = np.zeros(n_planes + 1, dtype=np.int64)
+    np.cumsum(per_plane, out=below[1:])
+    targets = (n_seg * np.arange(n_chunks + 1, dtype=np.int64)) // n_chunks
+    bounds = np.minimum(np.searchsorted(below, targets, side="left"), n_planes)
     bounds[0] = 0
-    k = 0
-    below = 0  # segments on planes < k
-    for c in range(1, n_chunks):
-        target = (n_seg * c) // n_chunks
-        while k < n_planes and below < target:
-            below += per_plane[k]
-            k += 1
-        bounds[c] = max(k, bounds[c - 1])
     bounds[n_chunks] = n_planes
-    _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
-                  face_offsets, layer_start, bounds, in_seg, in_pair, out_face,
-                  visited, coords, ring_start, rings_of, broken)
-    for k in range(n_planes):
-        if broken[k]:
-            raise RuntimeError("trace_contours: a loop without a successor")
 
-    n_rings = 0
-    for k in range(n_planes):
-        n_rings += rings_of[k]
-    ring_offsets = np.empty(n_rings + 1, dtype=np.int64)
-    r = 0
-    for i in range(n_closed):
-        if ring_start[i]:
-            ring_offsets[r] = i
-            r += 1
-    ring_offsets[n_rings] = n_closed
+    def closed(c):
+        _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
+                      face_offsets, layer_start, bounds[c], bounds[c + 1], in_seg,
+                      in_pair, out_face, visited, coords, ring_start, rings_of,
+                      broken)
+
+    run(closed, n_chunks)
+    if broken.any():
+        raise RuntimeError("trace_contours: a loop without a successor")
+    ring_offsets = np.append(np.flatnonzero(ring_start), n_closed).astype(np.int64)
     layer_offsets = np.zeros(n_planes + 1, dtype=np.int64)
-    for k in range(n_planes):
-        layer_offsets[out_layer[k] + 1] = rings_of[k]
-    for k in range(n_planes):
-        layer_offsets[k + 1] += layer_offsets[k]
+    layer_offsets[out_layer + 1] = rings_of
+    np.cumsum(layer_offsets, out=layer_offsets)
     return (coords, ring_offsets, layer_offsets, open_coords, open_offsets,
             open_rings)
 
 
-@kernel(I64_1D_OUT(I64_2D, I64_1D), parallel=True)
+@kernel(I64_1D_OUT(I64_2D, I64_1D))
 def vertex_layers(vertices, z):
     """Number of planes strictly below each vertex: ``searchsorted(z, vz, "left")``.
 
     A vertex is above plane ``k`` iff ``k < vert_layer[v]`` (on the plane counts as
-    below). Binary search per vertex, in parallel. Precondition: ``z`` sorted.
+    below). Binary search per vertex. Precondition: ``z`` sorted.
     """
     n = vertices.shape[0]
     n_planes = z.shape[0]
     out = np.empty(n, dtype=np.int64)
-    for v in prange(n):
+    for v in range(n):
         vz = vertices[v, 2]
         lo = 0
         hi = n_planes

@@ -77,8 +77,9 @@ def group_rings(points, vertex_ids, ring_offsets, ring_key, n_keys):
 def take_rings(coords, ring_offsets, keep):
     """The rings where ``keep`` is true, in order: ``(coords, ring_offsets)``.
 
-    Each kept ring's vertices are copied as one block; nothing per vertex but the
-    copy. Preconditions: offsets valid; ``len(keep) == len(ring_offsets) - 1``.
+    Each kept ring's vertices are copied in order; nothing per vertex but the
+    copy (element by element: a slice assignment costs seconds to compile).
+    Preconditions: offsets valid; ``len(keep) == len(ring_offsets) - 1``.
     """
     n_rings = ring_offsets.shape[0] - 1
     n_kept = 0
@@ -94,10 +95,10 @@ def take_rings(coords, ring_offsets, keep):
     i = 0
     for r in range(n_rings):
         if keep[r]:
-            start = ring_offsets[r]
-            stop = ring_offsets[r + 1]
-            out[j : j + stop - start] = coords[start:stop]
-            j += stop - start
+            for v in range(ring_offsets[r], ring_offsets[r + 1]):
+                out[j, 0] = coords[v, 0]
+                out[j, 1] = coords[v, 1]
+                j += 1
             i += 1
             offsets[i] = j
     return out, offsets

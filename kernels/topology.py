@@ -3,7 +3,7 @@
 import numpy as np
 from numba import prange, types
 
-from ._jit import kernel
+from ._jit import kernel, run_serial
 from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 
 _SMALL_BUCKET = 32
@@ -170,27 +170,19 @@ def edge_face_counts(face_edges, n_edges):
 
 
 _PACK_LIMIT = 1 << 30  # vertices (and half-edges >> 2) below this pack into one int64
+_CHUNK_VERTICES = 1 << 15  # vertices per chunk of bucket matching (at most 16 chunks)
 
 
-@kernel(I64_1D_OUT(I64_2D, I64), parallel=True)
-def half_edge_twins(faces, n_vertices):
-    """The ``twin`` result of :func:`edge_topology` alone, without numbering edges.
+@kernel(types.Tuple((I64_1D_OUT, I64_1D_OUT))(I64_2D, I64))
+def _pack_half_edges(faces, n_vertices):
+    """Half-edges bucketed by their smaller vertex: ``(offsets, packed)``.
 
-    ``twin[3 * f + j]`` is the opposite half-edge of the same edge where the edge
-    has exactly two half-edges running in opposite directions, and -1 elsewhere.
-    This is all that slicing needs of the topology.
-
-    Half-edges are bucketed by their smaller vertex (counting sort) as one int64
-    each: the other vertex, the direction and the half-edge id packed together, so
-    matching inside a bucket (in parallel over chunks of vertices) reads only the
-    bucket. Buckets of more than 32 half-edges are sorted first.
-
-    Preconditions: as :func:`edge_topology`.
+    A counting sort, stable. Each half-edge is one int64: the other vertex, the
+    direction (1 when the bucket's vertex is its start) and the half-edge id,
+    ``(other << 33) | (direction << 32) | id``.
     """
     n_faces = faces.shape[0]
     n_half = 3 * n_faces
-    if n_vertices >= _PACK_LIMIT or n_half >= 4 * _PACK_LIMIT:
-        return edge_topology(faces, n_vertices)[2]
     offsets = np.zeros(n_vertices + 1, dtype=np.int64)
     for f in range(n_faces):
         for j in range(3):
@@ -213,37 +205,104 @@ def half_edge_twins(faces, n_vertices):
                 key = a << 1
             packed[fill[v]] = (key << 32) | (3 * f + j)
             fill[v] += 1
-    twin = np.full(n_half, -1, dtype=np.int64)
+    return offsets, packed
+
+
+@kernel(types.void(types.int64[::1], I64, I64))
+def _heapsort(a, lo, hi):
+    """Sort ``a[lo:hi]`` in place, ascending (heapsort: O(n log n), no scratch)."""
+    n = hi - lo
+    for start in range(n // 2 - 1, -1, -1):
+        _sift_down(a, lo, start, n)
+    for end in range(n - 1, 0, -1):
+        t = a[lo]
+        a[lo] = a[lo + end]
+        a[lo + end] = t
+        _sift_down(a, lo, 0, end)
+
+
+@kernel(types.void(types.int64[::1], I64, I64, I64))
+def _sift_down(a, lo, i, n):
+    """Restore the max-heap ``a[lo:lo + n]`` below node ``i``."""
+    x = a[lo + i]
+    while True:
+        child = 2 * i + 1
+        if child >= n:
+            break
+        if child + 1 < n and a[lo + child + 1] > a[lo + child]:
+            child += 1
+        if a[lo + child] <= x:
+            break
+        a[lo + i] = a[lo + child]
+        i = child
+    a[lo + i] = x
+
+
+@kernel(types.void(I64_1D, types.int64[::1], I64, I64, types.int64[::1]))
+def _match_buckets(offsets, packed, v0, v1, out_twin):
+    """Twins of the half-edges in the buckets of vertices ``v0:v1``.
+
+    Small buckets are matched pairwise; buckets of more than 32 half-edges are
+    sorted in place first (so no bucket costs more than O(d log d)). Writes only
+    ``out_twin`` of these half-edges and ``packed`` of these buckets.
+    """
     low = np.int64(0xFFFFFFFF)
-    n_chunks = 64
-    step = (n_vertices + n_chunks - 1) // n_chunks
-    for c in prange(n_chunks):
-        for v in range(c * step, min(n_vertices, (c + 1) * step)):
-            start = offsets[v]
-            d = offsets[v + 1] - start
-            if d < 2:
-                continue
-            if d <= _SMALL_BUCKET:
-                for i in range(start, start + d):
-                    wi = packed[i] >> 33
-                    count = 0
-                    other = -1
-                    for i2 in range(start, start + d):
-                        if packed[i2] >> 33 == wi:
-                            count += 1
-                            if i2 != i:
-                                other = i2
-                    if count == 2 and ((packed[i] ^ packed[other]) >> 32) & 1:
-                        twin[packed[i] & low] = packed[other] & low
-                continue
-            run = np.sort(packed[start : start + d])
-            i = 0
-            while i < d:
-                i2 = i + 1
-                while i2 < d and run[i2] >> 33 == run[i] >> 33:
-                    i2 += 1
-                if i2 - i == 2 and ((run[i] ^ run[i + 1]) >> 32) & 1:
-                    twin[run[i] & low] = run[i + 1] & low
-                    twin[run[i + 1] & low] = run[i] & low
-                i = i2
+    for v in range(v0, v1):
+        start = offsets[v]
+        d = offsets[v + 1] - start
+        if d < 2:
+            continue
+        if d <= _SMALL_BUCKET:
+            for i in range(start, start + d):
+                wi = packed[i] >> 33
+                count = 0
+                other = -1
+                for i2 in range(start, start + d):
+                    if packed[i2] >> 33 == wi:
+                        count += 1
+                        if i2 != i:
+                            other = i2
+                if count == 2 and ((packed[i] ^ packed[other]) >> 32) & 1:
+                    out_twin[packed[i] & low] = packed[other] & low
+            continue
+        _heapsort(packed, start, start + d)
+        i = start
+        stop = start + d
+        while i < stop:
+            i2 = i + 1
+            while i2 < stop and packed[i2] >> 33 == packed[i] >> 33:
+                i2 += 1
+            if i2 - i == 2 and ((packed[i] ^ packed[i + 1]) >> 32) & 1:
+                out_twin[packed[i] & low] = packed[i + 1] & low
+                out_twin[packed[i + 1] & low] = packed[i] & low
+            i = i2
+
+
+def half_edge_twins(faces, n_vertices, run=run_serial):
+    """The ``twin`` result of :func:`edge_topology` alone, without numbering edges.
+
+    ``twin[3 * f + j]`` is the opposite half-edge of the same edge where the edge
+    has exactly two half-edges running in opposite directions, and -1 elsewhere.
+    This is all that slicing needs of the topology.
+
+    Half-edges are bucketed by their smaller vertex (counting sort) as one int64
+    each: the other vertex, the direction and the half-edge id packed together, so
+    matching inside a bucket (chunks of vertices, given to ``run``) reads only the
+    bucket. Buckets of more than 32 half-edges are sorted first. Meshes too large
+    to pack (2**30 vertices or more) take :func:`edge_topology`.
+
+    ``run(fn, n_chunks)`` calls ``fn(c)`` for every chunk ``c``, in any order or
+    at once (e.g. ``vecslice._threads.run_chunks``); by default one after another.
+
+    Preconditions: as :func:`edge_topology`.
+    """
+    n_half = 3 * faces.shape[0]
+    if n_vertices >= _PACK_LIMIT or n_half >= 4 * _PACK_LIMIT:
+        return edge_topology(faces, n_vertices)[2]
+    offsets, packed = _pack_half_edges(faces, n_vertices)
+    twin = np.full(n_half, -1, dtype=np.int64)
+    n_chunks = min(16, -(-n_vertices // _CHUNK_VERTICES))
+    step = -(-n_vertices // max(n_chunks, 1))
+    run(lambda c: _match_buckets(offsets, packed, c * step,
+                                 min(n_vertices, (c + 1) * step), twin), n_chunks)
     return twin

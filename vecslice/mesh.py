@@ -166,8 +166,10 @@ class Mesh:
         twins = self._twins
         if twins is None:
             from vecslice._kernels import topology
+            from vecslice._threads import run_chunks
 
-            twins = topology.half_edge_twins(self.faces, self.vertices.shape[0])
+            twins = topology.half_edge_twins(self.faces, self.vertices.shape[0],
+                                             run=run_chunks)
             twins.flags.writeable = False
             object.__setattr__(self, "_twins", twins)
         return twins

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from typing import Any
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vecslice._kernels.contours import trace_contours, vertex_layers
+from vecslice._threads import run_chunks, worker_count
 from vecslice._validate import (
     as_int_array,
     check_bool,
@@ -33,6 +33,17 @@ def _layer_of_vertices(
     vertices have layers ``l`` meets planes ``min(l) <= k < max(l)``.
     """
     return vertex_layers(vertices, z)
+
+
+def _chunks_for(n_faces: int, n_planes: int) -> int:
+    """Chunks of planes to trace on threads: 4 per worker, one for small work.
+
+    Each chunk scans every face once, so a small mesh (or few planes) is traced
+    in one chunk, on the calling thread.
+    """
+    if n_faces * min(n_planes, 64) < 2_000_000:
+        return 1
+    return 4 * worker_count()
 
 
 def _check_mesh(
@@ -133,7 +144,7 @@ def _contours(mesh: Any, z: NDArray[np.int64], stitch: bool) -> LayerPaths:
     vert_layer = _layer_of_vertices(vertices, zs)
     coords, ring_offsets, layer_offsets, o_coords, o_rings, o_layers = (
         trace_contours(vertices, faces, twin, vert_layer, zs, out_layer,
-                       4 * numba.get_num_threads())
+                       _chunks_for(faces.shape[0], zs.shape[0]), run=run_chunks)
     )
     open_chains = LayerPaths._trusted(o_coords, o_rings, o_layers)
     loops = LayerPaths._trusted(coords, ring_offsets, layer_offsets, open_chains)

@@ -3,11 +3,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from strategies import closed_meshes
+from vecslice._kernels._jit import run_serial
 from vecslice._kernels.contours import trace_contours, vertex_layers
 from vecslice._kernels.crossings import crossing_points, face_segments, range_offsets
 from vecslice._kernels.loops import link_segments
 from vecslice._kernels.rings import group_rings
 from vecslice._kernels.topology import edge_topology, half_edge_twins
+from vecslice._threads import run_chunks
 
 
 def chained(v, f, z, out_layer):
@@ -25,10 +27,21 @@ def chained(v, f, z, out_layer):
     return closed + chains
 
 
-def traced(v, f, z, out_layer, n_chunks):
+def shuffled(fn, n_chunks):
+    """Run the chunks in reverse order, as threads may."""
+    out = [None] * n_chunks
+    for c in reversed(range(n_chunks)):
+        out[c] = fn(c)
+    return out
+
+
+RUNNERS = {"serial": run_serial, "shuffled": shuffled, "threads": run_chunks}
+
+
+def traced(v, f, z, out_layer, n_chunks, run="serial"):
     vl = np.searchsorted(z, v[:, 2], side="left").astype(np.int64)
     return trace_contours(v, f, half_edge_twins(f, len(v)), vl, z, out_layer,
-                          n_chunks)
+                          n_chunks, run=RUNNERS[run])
 
 
 def break_mesh(f, rng):
@@ -42,8 +55,9 @@ def break_mesh(f, rng):
 
 
 @given(closed_meshes(), st.integers(0, 2**32 - 1), st.booleans(),
-       st.integers(1, 9))
-def test_trace_contours_equals_the_chained_kernels(case, seed, broken, n_chunks):
+       st.integers(1, 9), st.sampled_from(sorted(RUNNERS)))
+def test_trace_contours_equals_the_chained_kernels(case, seed, broken, n_chunks,
+                                                   run):
     v, f, planes = case
     rng = np.random.default_rng(seed)
     if broken:
@@ -52,7 +66,7 @@ def test_trace_contours_equals_the_chained_kernels(case, seed, broken, n_chunks)
             return
     z = np.sort(np.asarray(planes, dtype=np.int64))
     out_layer = rng.permutation(len(z)).astype(np.int64)
-    got = traced(v, f, z, out_layer, n_chunks)
+    got = traced(v, f, z, out_layer, n_chunks, run)
     ref = chained(v, f, z, out_layer)
     for a, b in zip(got, ref, strict=True):
         assert a.tolist() == b.tolist()

@@ -84,3 +84,35 @@ def test_half_edge_twins_on_large_fans():
     faces = np.array(fan + back + back[:7], dtype=np.int64)
     _, _, twin = edge_topology(faces, n + 2)
     assert half_edge_twins(faces, n + 2).tolist() == twin.tolist()
+
+
+def _shuffled_run(fn, n_chunks):
+    # chunks in a scrambled order, as threads may run them
+    order = np.random.default_rng(n_chunks).permutation(n_chunks)
+    out = [None] * n_chunks
+    for c in order:
+        out[c] = fn(int(c))
+    return out
+
+
+@pytest.mark.parametrize("run", ["shuffled", "threads"])
+def test_half_edge_twins_in_chunks_equal_serial_and_edge_topology(run):
+    # enough vertices for several chunks of bucket matching; random triangles over
+    # few distinct vertex pairs give shared, non-manifold and flipped edges, and a
+    # fan around vertex 5 gives a bucket that is sorted
+    from vecslice._threads import run_chunks
+
+    rng = np.random.default_rng(7)
+    n = 150_000
+    tris = rng.integers(0, n, size=(60_000, 3))
+    near = np.sort(rng.integers(0, n, size=(20_000, 1)) + rng.integers(
+        0, 3, size=(20_000, 3)), axis=1) % n
+    fan = np.array([[5, i, i + 1] for i in range(6, 200)])
+    faces = np.concatenate([tris, near, near[::3, ::-1], fan]).astype(np.int64)
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2])
+                  & (faces[:, 0] != faces[:, 2])]
+    runner = _shuffled_run if run == "shuffled" else run_chunks
+    got = half_edge_twins(faces, n, run=runner)
+    assert got.tolist() == half_edge_twins(faces, n).tolist()
+    assert got.tolist() == edge_topology(faces, n)[2].tolist()
+    assert (got >= 0).sum() > 5_000  # the case has matched edges to check

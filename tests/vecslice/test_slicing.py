@@ -212,9 +212,9 @@ def test_topology_is_built_once_per_mesh(monkeypatch):
     calls = []
     build = topology.half_edge_twins
 
-    def counted(faces, n_vertices):
+    def counted(faces, n_vertices, **kw):
         calls.append(len(faces))
-        return build(faces, n_vertices)
+        return build(faces, n_vertices, **kw)
 
     monkeypatch.setattr(topology, "half_edge_twins", counted)
     mesh = vs.load_mesh(trimesh.creation.icosphere(subdivisions=2, radius=10))
