@@ -1,10 +1,10 @@
 """Kernels merging equal vertex positions and cleaning the faces that index them."""
 
 import numpy as np
-from numba import prange, types
+from numba import types
 
-from ._jit import kernel
-from ._types import B1, I64, I64_1D_OUT, I64_2D, I64_2D_OUT
+from ._jit import kernel, run_serial
+from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 
 # odd 64-bit multipliers (from splitmix64 and the golden ratio) mixing x, y, z
 _MIX_X = np.int64(-7046029254386353131)  # 0x9E3779B97F4A7C15
@@ -22,22 +22,17 @@ def _hash(x, y, z):
 
 
 _PART_SIZE = 2048  # about this many vertices per partition: its table stays in cache
+_CHUNK_PARTS = 64  # partitions per chunk of matching
+_CHUNK_FACES = 1 << 16  # faces per chunk of the face passes
 
 
-@kernel(types.Tuple((I64_1D_OUT, I64_1D_OUT))(I64_2D), parallel=True)
-def merge_vertices(vertices):
-    """Group vertices with exactly equal positions, in linear expected time.
+@kernel(types.Tuple((I64_1D_OUT, I64_1D_OUT, types.uint64[::1], I64))(I64_2D))
+def _partition_vertices(vertices):
+    """Vertices partitioned by the top bits of a hash of their position.
 
-    Returns ``(group, first)``: ``group[i]`` is the group of vertex ``i``, groups
-    numbered in order of first occurrence, and ``first[g]`` the first vertex of
-    group ``g`` (increasing).
-
-    The vertices are partitioned by the top bits of a hash of their position
-    (a counting sort, keeping index order within each partition), so that equal
-    positions share a partition; each partition then finds, with its own small
-    hash table (open addressing, linear probing, exact comparison of all three
-    coordinates), the first vertex of every position, in parallel. A last pass
-    numbers the groups in index order.
+    Returns ``(part_offsets, order, hashes, pbits)``: partition ``p`` holds the
+    vertices ``order[part_offsets[p]:part_offsets[p + 1]]`` in index order (a
+    counting sort), ``hashes`` beside them, ``2**pbits`` partitions.
     """
     n = vertices.shape[0]
     pbits = 0
@@ -61,8 +56,20 @@ def merge_vertices(vertices):
         order[fill[p]] = i
         hashes[fill[p]] = h
         fill[p] += 1
-    rep = np.empty(n, dtype=np.int64)
-    for p in prange(n_parts):
+    return part_offsets, order, hashes, pbits
+
+
+_U64_1D = types.Array(types.uint64, 1, "C", readonly=True)
+
+
+@kernel(types.void(I64_2D, I64_1D, I64_1D, _U64_1D, I64, I64, I64, types.int64[::1]))
+def _match_partitions(vertices, part_offsets, order, hashes, pbits, p0, p1, out_rep):
+    """``out_rep[i]``, the first vertex at vertex ``i``'s position, in partitions p0:p1.
+
+    Each partition finds it with its own small hash table (open addressing, linear
+    probing, exact comparison of all three coordinates).
+    """
+    for p in range(p0, p1):
         start = part_offsets[p]
         m = part_offsets[p + 1] - start
         if m == 0:
@@ -80,17 +87,23 @@ def merge_vertices(vertices):
                 t = table[s]
                 if t < 0:
                     table[s] = q
-                    rep[i] = i
+                    out_rep[i] = i
                     break
                 if hashes[t] == h:
                     j = order[t]
                     if (vertices[j, 0] == vertices[i, 0]
                             and vertices[j, 1] == vertices[i, 1]
                             and vertices[j, 2] == vertices[i, 2]):
-                        rep[i] = j  # j < i: a partition is in index order
+                        out_rep[i] = j  # j < i: a partition is in index order
                         break
                 s = (s + 1) & mask
-    group = order  # reused: order is no longer needed
+
+
+@kernel(types.Tuple((I64_1D_OUT, I64_1D_OUT))(I64_1D))
+def _number_groups(rep):
+    """``(group, first)`` from the first vertex ``rep[i]`` of every position."""
+    n = rep.shape[0]
+    group = np.empty(n, dtype=np.int64)
     first = np.empty(n, dtype=np.int64)
     n_groups = 0
     for i in range(n):
@@ -104,75 +117,123 @@ def merge_vertices(vertices):
     return group, first[:n_groups].copy()
 
 
-@kernel(
-    types.Tuple((I64_2D_OUT, I64_2D_OUT, I64, I64, I64))(I64_2D, I64_2D, B1),
-    parallel=True,
-)
-def clean_mesh(vertices, faces, merge):
+def merge_vertices(vertices, run=run_serial):
+    """Group vertices with exactly equal positions, in linear expected time.
+
+    Returns ``(group, first)``: ``group[i]`` is the group of vertex ``i``, groups
+    numbered in order of first occurrence, and ``first[g]`` the first vertex of
+    group ``g`` (increasing).
+
+    The vertices are partitioned by the top bits of a hash of their position
+    (a counting sort, keeping index order within each partition), so that equal
+    positions share a partition; each partition then finds, with its own small
+    hash table, the first vertex of every position, chunks of partitions given to
+    ``run`` (``run(fn, n)`` calls ``fn(c)`` for every chunk ``c``, in any order or
+    at once; by default one after another). A last pass numbers the groups in
+    index order.
+    """
+    part_offsets, order, hashes, pbits = _partition_vertices(vertices)
+    rep = np.empty(vertices.shape[0], dtype=np.int64)
+    n_parts = part_offsets.shape[0] - 1
+    n_chunks = -(-n_parts // _CHUNK_PARTS)
+    run(lambda c: _match_partitions(
+        vertices, part_offsets, order, hashes, pbits, c * _CHUNK_PARTS,
+        min(n_parts, (c + 1) * _CHUNK_PARTS), rep), n_chunks)
+    return _number_groups(rep)
+
+
+@kernel(I64(I64_2D, I64_1D, I64, I64, types.int64[::1]))
+def _mark_used(faces, group, f0, f1, out_used):
+    """Mark the groups used by the faces ``f0:f1``; count the degenerate ones.
+
+    A face with a repeated group is degenerate: it marks nothing.
+    """
+    count = 0
+    for f in range(f0, f1):
+        a = group[faces[f, 0]]
+        b = group[faces[f, 1]]
+        e = group[faces[f, 2]]
+        if a == b or b == e or e == a:
+            count += 1
+        else:  # every writer stores the same value
+            out_used[a] = 1
+            out_used[b] = 1
+            out_used[e] = 1
+    return count
+
+
+@kernel(types.Tuple((I64_2D_OUT, I64))(I64_2D, I64_1D, types.int64[::1]))
+def _kept_vertices(vertices, first, io_used):
+    """Number the used groups in group order; return their first vertices.
+
+    ``io_used`` is renumbered in place (-1 for unused groups). Returns
+    ``(vertices, n_kept)``.
+    """
+    n_groups = first.shape[0]
+    n_kept = 0
+    for g in range(n_groups):
+        if io_used[g]:
+            io_used[g] = n_kept
+            n_kept += 1
+        else:
+            io_used[g] = -1
+    out_v = np.empty((n_kept, 3), dtype=np.int64)
+    for g in range(n_groups):
+        k = io_used[g]
+        if k >= 0:
+            out_v[k, 0] = vertices[first[g], 0]
+            out_v[k, 1] = vertices[first[g], 1]
+            out_v[k, 2] = vertices[first[g], 2]
+    return out_v, n_kept
+
+
+@kernel(types.void(I64_2D, I64_1D, I64_1D, I64, I64, I64, types.int64[:, ::1]))
+def _write_faces(faces, group, new_id, f0, f1, j, out_faces):
+    """Write the kept faces of ``f0:f1`` (renumbered) from row ``j`` on."""
+    for f in range(f0, f1):
+        a = group[faces[f, 0]]
+        b = group[faces[f, 1]]
+        e = group[faces[f, 2]]
+        if not (a == b or b == e or e == a):
+            out_faces[j, 0] = new_id[a]
+            out_faces[j, 1] = new_id[b]
+            out_faces[j, 2] = new_id[e]
+            j += 1
+
+
+def clean_mesh(vertices, faces, merge, run=run_serial):
     """Merge equal positions, drop faces with a repeated vertex and unused vertices.
 
     Returns ``(vertices, faces, n_merged, n_unused, n_degenerate)``. Kept vertices
     are the first occurrence of each position, in their original order; kept faces
     keep their order and winding. Without ``merge`` only repeated indices and
-    unused vertices are removed.
+    unused vertices are removed. The passes over the faces go in chunks to
+    ``run`` (as :func:`merge_vertices`).
 
     Preconditions: 0 <= faces < len(vertices).
     """
     n_v = vertices.shape[0]
     if merge:
-        group, first = merge_vertices(vertices)
+        group, first = merge_vertices(vertices, run)
     else:
-        group = np.arange(n_v)
-        first = np.arange(n_v)
+        group = np.arange(n_v, dtype=np.int64)
+        first = group
     n_groups = first.shape[0]
-    used = np.zeros(n_groups + 1, dtype=np.int64)
     n_faces = faces.shape[0]
-    # chunks of faces in parallel: mark used groups, count degenerate faces
-    n_chunks = 64
-    step = (n_faces + n_chunks - 1) // n_chunks
-    deg_of = np.zeros(n_chunks + 1, dtype=np.int64)
-    for c in prange(n_chunks):
-        count = 0
-        for f in range(c * step, min(n_faces, (c + 1) * step)):
-            a = group[faces[f, 0]]
-            b = group[faces[f, 1]]
-            e = group[faces[f, 2]]
-            if a == b or b == e or e == a:
-                count += 1
-            else:  # every writer stores the same value
-                used[a] = 1
-                used[b] = 1
-                used[e] = 1
-        deg_of[c + 1] = count
-    for c in range(n_chunks):
-        deg_of[c + 1] += deg_of[c]
-    n_deg = deg_of[n_chunks]
+    used = np.zeros(n_groups + 1, dtype=np.int64)
+    n_chunks = -(-n_faces // _CHUNK_FACES)
+
+    def rows(c):
+        return c * _CHUNK_FACES, min(n_faces, (c + 1) * _CHUNK_FACES)
+
+    deg = run(lambda c: _mark_used(faces, group, *rows(c), used), n_chunks)
+    deg_before = np.zeros(n_chunks + 1, dtype=np.int64)
+    np.cumsum(deg, out=deg_before[1:])
+    n_deg = int(deg_before[n_chunks])
     # groups are in order of their first vertex: numbering the used ones in group
     # order keeps the original vertex order
-    n_kept = 0
-    for g in range(n_groups):
-        if used[g]:
-            used[g] = n_kept
-            n_kept += 1
-        else:
-            used[g] = -1
-    out_v = np.empty((n_kept, 3), dtype=np.int64)
-    for g in range(n_groups):
-        k = used[g]
-        if k >= 0:
-            out_v[k, 0] = vertices[first[g], 0]
-            out_v[k, 1] = vertices[first[g], 1]
-            out_v[k, 2] = vertices[first[g], 2]
+    out_v, n_kept = _kept_vertices(vertices, first, used)
     out_f = np.empty((n_faces - n_deg, 3), dtype=np.int64)
-    for c in prange(n_chunks):
-        j = c * step - deg_of[c]  # kept faces before this chunk
-        for f in range(c * step, min(n_faces, (c + 1) * step)):
-            a = group[faces[f, 0]]
-            b = group[faces[f, 1]]
-            e = group[faces[f, 2]]
-            if not (a == b or b == e or e == a):
-                out_f[j, 0] = used[a]
-                out_f[j, 1] = used[b]
-                out_f[j, 2] = used[e]
-                j += 1
-    return out_v, out_f, n_v - n_groups, n_groups - n_kept, n_deg
+    run(lambda c: _write_faces(faces, group, used, *rows(c),
+                               c * _CHUNK_FACES - deg_before[c], out_f), n_chunks)
+    return out_v, out_f, n_v - n_groups, n_groups - int(n_kept), n_deg

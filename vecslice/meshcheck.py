@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice._kernels.vertices import clean_mesh
+from vecslice._threads import run_chunks
 from vecslice.nesting import outermost_container
 
 __all__ = ["LoadInfo", "MeshReport", "build_report", "clean_arrays"]
@@ -89,12 +90,13 @@ def clean_arrays(
     """Merge equal positions, drop repeated-index faces and unused vertices.
 
     Kept vertices stay in order of first occurrence, so a clean mesh is unchanged.
-    One hashed pass over the vertices and two over the faces (a kernel). Returns
+    One hashed pass over the vertices and two over the faces (kernels, in chunks
+    on threads). Returns
     ``(vertices, faces, n_merged, n_unused, n_degenerate)``.
     """
     v2, f2, n_merged, n_unused, n_deg = clean_mesh(
         np.ascontiguousarray(v, dtype=np.int64),
-        np.ascontiguousarray(f, dtype=np.int64), merge,
+        np.ascontiguousarray(f, dtype=np.int64), merge, run=run_chunks,
     )
     return v2, f2, int(n_merged), int(n_unused), int(n_deg)
 

@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -52,3 +53,31 @@ def test_merge_survives_colliding_slots():
     assert sorted(first.tolist()) == sorted(ref_first.tolist())
     assert (first[group] == ref_first[ref_inv.reshape(-1)]).all()
     assert (v[first[group]] == v).all()
+
+
+def _reversed_run(fn, n_chunks):
+    # chunks last to first, as threads may run them
+    out = [None] * n_chunks
+    for c in reversed(range(n_chunks)):
+        out[c] = fn(c)
+    return out
+
+
+@pytest.mark.parametrize("run", ["reversed", "threads"])
+@pytest.mark.parametrize("merge", [True, False])
+def test_clean_mesh_in_chunks_matches_the_sorting_merge(run, merge):
+    # enough vertices for several chunks of partitions, enough faces for several
+    # chunks of faces; few distinct positions, so many merge and faces degenerate
+    from vecslice._threads import run_chunks
+
+    rng = np.random.default_rng(3)
+    v = rng.integers(-20, 20, size=(300_000, 3)).astype(np.int64)
+    f = rng.integers(0, 300_000, size=(200_000, 3)).astype(np.int64)
+    f[::7, 1] = f[::7, 0]  # repeated indices
+    runner = _reversed_run if run == "reversed" else run_chunks
+    got = clean_mesh(v, f, merge, run=runner)
+    ref = reference_mesh.clean_arrays(v, f, merge=merge)
+    assert got[0].tolist() == ref[0].tolist()
+    assert got[1].tolist() == ref[1].tolist()
+    assert list(got[2:]) == list(ref[2:])
+    assert got[4] > 28_000 and (got[2] > 100_000) == merge
