@@ -83,12 +83,14 @@ def kernel(signature=None, **options):
     return decorate
 
 
-def run_serial(fn, n_chunks):
-    """Call ``fn(c)`` for ``c`` in ``range(n_chunks)``, in order; return the results.
+def run_serial(fn, bounds):
+    """Call ``fn(lo, hi)`` for every chunk ``bounds[c]:bounds[c + 1]``, in order.
 
     The default ``run`` of the kernel drivers that split their work into chunks
-    (a chunk is one call of a plain ``nogil`` kernel); the library passes a
-    thread pool instead (``vecslice._threads.run_chunks``), which gives the
-    parallelism of ``parallel=True`` without its compile time.
+    (a chunk is one call of a plain ``nogil`` kernel over a range of items); the
+    library passes a thread pool instead (``vecslice._threads.run_chunks``, same
+    call), which gives the parallelism of ``parallel=True`` without its compile
+    time.
     """
-    return [fn(c) for c in range(n_chunks)]
+    for c in range(len(bounds) - 1):
+        fn(int(bounds[c]), int(bounds[c + 1]))

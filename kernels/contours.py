@@ -385,9 +385,10 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
 
     Closed loops are traced in up to ``n_chunks`` chunks of consecutive planes
     with about equal numbers of segments: a loop lies in one plane, and each
-    plane's vertices have their own range of the output. ``run(fn, n)`` calls
-    ``fn(c)`` for every chunk ``c`` (in any order, or at once: e.g.
-    ``vecslice._threads.run_chunks``); by default one after another.
+    plane's vertices have their own range of the output. ``run(fn, bounds)``
+    calls ``fn(k0, k1)`` for every chunk of planes ``bounds[c]:bounds[c + 1]``
+    (in any order, or at once: e.g. ``vecslice._threads.run_chunks``); by
+    default one after another.
 
     Preconditions: ``z`` sorted; ``vert_layer[v]`` the number of planes strictly
     below vertex ``v``; ``twin`` from :func:`.topology.half_edge_twins`;
@@ -433,13 +434,12 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
     bounds[0] = 0
     bounds[n_chunks] = n_planes
 
-    def closed(c):
+    def closed(k0, k1):
         _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
-                      face_offsets, layer_start, bounds[c], bounds[c + 1], in_seg,
-                      in_pair, out_face, visited, coords, ring_start, rings_of,
-                      broken)
+                      face_offsets, layer_start, k0, k1, in_seg, in_pair,
+                      out_face, visited, coords, ring_start, rings_of, broken)
 
-    run(closed, n_chunks)
+    run(closed, bounds)
     if broken.any():
         raise RuntimeError("trace_contours: a loop without a successor")
     ring_offsets = np.append(np.flatnonzero(ring_start), n_closed).astype(np.int64)

@@ -291,8 +291,9 @@ def half_edge_twins(faces, n_vertices, run=run_serial):
     bucket. Buckets of more than 32 half-edges are sorted first. Meshes too large
     to pack (2**30 vertices or more) take :func:`edge_topology`.
 
-    ``run(fn, n_chunks)`` calls ``fn(c)`` for every chunk ``c``, in any order or
-    at once (e.g. ``vecslice._threads.run_chunks``); by default one after another.
+    ``run(fn, bounds)`` calls ``fn(lo, hi)`` for every chunk of vertices
+    ``bounds[c]:bounds[c + 1]``, in any order or at once (e.g.
+    ``vecslice._threads.run_chunks``); by default one after another.
 
     Preconditions: as :func:`edge_topology`.
     """
@@ -301,8 +302,7 @@ def half_edge_twins(faces, n_vertices, run=run_serial):
         return edge_topology(faces, n_vertices)[2]
     offsets, packed = _pack_half_edges(faces, n_vertices)
     twin = np.full(n_half, -1, dtype=np.int64)
-    n_chunks = min(16, -(-n_vertices // _CHUNK_VERTICES))
-    step = -(-n_vertices // max(n_chunks, 1))
-    run(lambda c: _match_buckets(offsets, packed, c * step,
-                                 min(n_vertices, (c + 1) * step), twin), n_chunks)
+    n_chunks = max(1, min(16, -(-n_vertices // _CHUNK_VERTICES)))
+    bounds = (n_vertices * np.arange(n_chunks + 1, dtype=np.int64)) // n_chunks
+    run(lambda v0, v1: _match_buckets(offsets, packed, v0, v1, twin), bounds)
     return twin

@@ -128,17 +128,16 @@ def merge_vertices(vertices, run=run_serial):
     (a counting sort, keeping index order within each partition), so that equal
     positions share a partition; each partition then finds, with its own small
     hash table, the first vertex of every position, chunks of partitions given to
-    ``run`` (``run(fn, n)`` calls ``fn(c)`` for every chunk ``c``, in any order or
-    at once; by default one after another). A last pass numbers the groups in
-    index order.
+    ``run`` (``run(fn, bounds)`` calls ``fn(lo, hi)`` for every chunk
+    ``bounds[c]:bounds[c + 1]``, in any order or at once; by default one after
+    another). A last pass numbers the groups in index order.
     """
     part_offsets, order, hashes, pbits = _partition_vertices(vertices)
     rep = np.empty(vertices.shape[0], dtype=np.int64)
     n_parts = part_offsets.shape[0] - 1
-    n_chunks = -(-n_parts // _CHUNK_PARTS)
-    run(lambda c: _match_partitions(
-        vertices, part_offsets, order, hashes, pbits, c * _CHUNK_PARTS,
-        min(n_parts, (c + 1) * _CHUNK_PARTS), rep), n_chunks)
+    bounds = np.append(np.arange(0, n_parts, _CHUNK_PARTS), n_parts)
+    run(lambda p0, p1: _match_partitions(vertices, part_offsets, order, hashes,
+                                         pbits, p0, p1, rep), bounds)
     return _number_groups(rep)
 
 
@@ -221,19 +220,20 @@ def clean_mesh(vertices, faces, merge, run=run_serial):
     n_groups = first.shape[0]
     n_faces = faces.shape[0]
     used = np.zeros(n_groups + 1, dtype=np.int64)
-    n_chunks = -(-n_faces // _CHUNK_FACES)
+    bounds = np.append(np.arange(0, n_faces, _CHUNK_FACES), n_faces)
+    n_chunks = bounds.shape[0] - 1
+    deg = np.zeros(n_chunks + 1, dtype=np.int64)  # then: degenerate faces before
 
-    def rows(c):
-        return c * _CHUNK_FACES, min(n_faces, (c + 1) * _CHUNK_FACES)
+    def mark(f0, f1):
+        deg[1 + f0 // _CHUNK_FACES] = _mark_used(faces, group, f0, f1, used)
 
-    deg = run(lambda c: _mark_used(faces, group, *rows(c), used), n_chunks)
-    deg_before = np.zeros(n_chunks + 1, dtype=np.int64)
-    np.cumsum(deg, out=deg_before[1:])
-    n_deg = int(deg_before[n_chunks])
+    run(mark, bounds)
+    np.cumsum(deg, out=deg)
+    n_deg = int(deg[n_chunks])
     # groups are in order of their first vertex: numbering the used ones in group
     # order keeps the original vertex order
     out_v, n_kept = _kept_vertices(vertices, first, used)
     out_f = np.empty((n_faces - n_deg, 3), dtype=np.int64)
-    run(lambda c: _write_faces(faces, group, used, *rows(c),
-                               c * _CHUNK_FACES - deg_before[c], out_f), n_chunks)
+    run(lambda f0, f1: _write_faces(faces, group, used, f0, f1,
+                                    f0 - deg[f0 // _CHUNK_FACES], out_f), bounds)
     return out_v, out_f, n_v - n_groups, n_groups - int(n_kept), n_deg

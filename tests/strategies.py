@@ -49,3 +49,9 @@ def closed_meshes(draw):
     planes = list(rng.integers(zs.min() - 2, zs.max() + 3, size=6))
     planes += list(rng.choice(zs, size=3))  # exactly at vertex heights
     return v, f, np.array(planes, dtype=np.int64)
+
+
+def run_reversed(fn, bounds):
+    """A kernel driver's ``run``: the chunks last to first (as threads may)."""
+    for c in reversed(range(len(bounds) - 1)):
+        fn(int(bounds[c]), int(bounds[c + 1]))

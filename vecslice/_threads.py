@@ -2,36 +2,26 @@
 
 A kernel compiled with ``parallel=True`` costs seconds to compile on a first run
 (numba's parfor passes and gufunc lowering). The same parallelism comes from a plain
-``nogil`` kernel that does one chunk of the work, called for every chunk from a few
-Python threads: :func:`run_chunks`. The kernels release the GIL, so the threads
-run at the same time; a chunk costs the thread pool a few microseconds.
+``nogil`` kernel that does one chunk of the work (a range ``lo:hi`` of rings,
+planes, vertices...), called for every chunk from a few Python threads:
+:func:`run_chunks`. The kernels release the GIL, so the threads run at the same
+time; a chunk costs the thread pool a few microseconds. The number of threads is
+numba's (``numba.get_num_threads()``), so ``NUMBA_NUM_THREADS`` and
+``numba.set_num_threads`` apply here as well.
 """
 
 from __future__ import annotations
 
+import itertools
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from typing import TypeVar
 
-__all__ = ["run_chunks", "worker_count"]
-
-T = TypeVar("T")
+__all__ = ["run_chunks"]
 
 _pool: ThreadPoolExecutor | None = None
 _pool_size = 0
 _pool_lock = threading.Lock()
-
-
-def worker_count() -> int:
-    """Threads that :func:`run_chunks` uses: numba's thread count (at least 1).
-
-    ``NUMBA_NUM_THREADS`` and ``numba.set_num_threads`` limit it as they limit
-    numba's own parallel kernels.
-    """
-    import numba
-
-    return max(1, int(numba.get_num_threads()))
 
 
 def _executor(size: int) -> ThreadPoolExecutor:
@@ -44,26 +34,29 @@ def _executor(size: int) -> ThreadPoolExecutor:
         return _pool
 
 
-def run_chunks(fn: Callable[[int], T], n_chunks: int) -> list[T]:
-    """Call ``fn(c)`` for every chunk ``c``, on threads; return the results in order.
+def run_chunks(fn: Callable[[int, int], object], bounds: Sequence[int],
+               threads: int | None = None) -> None:
+    """Call ``fn(lo, hi)`` for every chunk ``bounds[c]:bounds[c + 1]``, on threads.
 
-    Up to :func:`worker_count` threads run the chunks ``range(n_chunks)``.
-    The calling thread works too, and the chunks are handed out one at a time
-    (the first free thread takes the next), so uneven chunks balance out. With one
-    worker, or one chunk, everything runs in the calling thread. ``fn`` must be
-    safe to call from several threads at once (chunks write disjoint outputs).
+    Up to ``threads`` threads (default numba's thread count) run the chunks. The
+    calling thread works too, and the chunks are handed out in order, one at a
+    time (the first free thread takes the next), so uneven chunks balance out.
+    With one thread, or one chunk, everything runs in the calling thread. ``fn``
+    must be safe to call from several threads at once (chunks write disjoint
+    outputs). The caller waits only for chunks that a thread has taken, so a
+    call made while the pool is busy (another call, or one nested in a chunk)
+    never waits for a helper that has not started.
 
     Parameters
     ----------
     fn : callable
-        ``fn(c)`` does chunk ``c``; a numba kernel called in it releases the GIL.
-    n_chunks : int
-        Number of chunks (0 or more).
-
-    Returns
-    -------
-    list
-        ``[fn(0), fn(1), ...]``.
+        ``fn(lo, hi)`` does one chunk; a numba kernel called in it releases the
+        GIL.
+    bounds : sequence of int
+        Chunk boundaries, non-decreasing (an array or a list); ``len(bounds) - 1``
+        chunks, none when it has fewer than two entries.
+    threads : int, optional
+        At most this many threads.
 
     Raises
     ------
@@ -73,27 +66,36 @@ def run_chunks(fn: Callable[[int], T], n_chunks: int) -> list[T]:
 
     Examples
     --------
-    >>> run_chunks(lambda c: c * c, 4)
-    [0, 1, 4, 9]
+    >>> done = []
+    >>> run_chunks(lambda lo, hi: done.append((lo, hi)), [0, 2, 5], threads=1)
+    >>> done
+    [(0, 2), (2, 5)]
     """
-    n_chunks = int(n_chunks)
-    workers = min(n_chunks, worker_count())
+    edges = [int(b) for b in bounds]
+    chunks = list(itertools.pairwise(edges))
+    if threads is None:
+        import numba
+
+        threads = numba.get_num_threads()
+    workers = min(len(chunks), max(1, int(threads)))
     if workers <= 1:
-        return [fn(c) for c in range(n_chunks)]
-    results: list[T | None] = [None] * n_chunks
+        for lo, hi in chunks:
+            fn(lo, hi)
+        return
     errors: list[BaseException] = []
     cond = threading.Condition()
     taken = [0, 0]  # chunks handed out, chunks finished
+    stop = [False]
 
     def work() -> None:
         while True:
             with cond:
-                if errors or taken[0] >= n_chunks:
+                if stop[0] or errors or taken[0] >= len(chunks):
                     return
-                c = taken[0]
+                lo, hi = chunks[taken[0]]
                 taken[0] += 1
             try:
-                results[c] = fn(c)
+                fn(lo, hi)
             except BaseException as exc:  # re-raised in the caller's thread
                 with cond:
                     errors.append(exc)
@@ -104,13 +106,15 @@ def run_chunks(fn: Callable[[int], T], n_chunks: int) -> list[T]:
 
     pool = _executor(workers - 1)
     for _ in range(workers - 1):
-        # a helper that starts late (pool busy, or a nested call) finds no chunk
-        # left and returns at once: the caller waits only for chunks handed out
+        # a helper that starts late finds no chunk left and returns at once
         pool.submit(work)
-    work()
+    try:
+        work()
+    except BaseException:
+        stop[0] = True  # e.g. Ctrl-C in the calling thread: hand out no more
+        raise
     with cond:
         while taken[1] < taken[0]:
             cond.wait()
     if errors:
         raise errors[0]
-    return results  # type: ignore[return-value]

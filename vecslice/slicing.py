@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vecslice._kernels.contours import trace_contours, vertex_layers
-from vecslice._threads import run_chunks, worker_count
+from vecslice._threads import run_chunks
 from vecslice._validate import (
     as_int_array,
     check_bool,
@@ -43,7 +44,7 @@ def _chunks_for(n_faces: int, n_planes: int) -> int:
     """
     if n_faces * min(n_planes, 64) < 2_000_000:
         return 1
-    return 4 * worker_count()
+    return 4 * numba.get_num_threads()
 
 
 def _check_mesh(

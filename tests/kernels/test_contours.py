@@ -2,7 +2,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from strategies import closed_meshes
+from strategies import closed_meshes, run_reversed
 from vecslice._kernels._jit import run_serial
 from vecslice._kernels.contours import trace_contours, vertex_layers
 from vecslice._kernels.crossings import crossing_points, face_segments, range_offsets
@@ -27,15 +27,7 @@ def chained(v, f, z, out_layer):
     return closed + chains
 
 
-def shuffled(fn, n_chunks):
-    """Run the chunks in reverse order, as threads may."""
-    out = [None] * n_chunks
-    for c in reversed(range(n_chunks)):
-        out[c] = fn(c)
-    return out
-
-
-RUNNERS = {"serial": run_serial, "shuffled": shuffled, "threads": run_chunks}
+RUNNERS = {"serial": run_serial, "reversed": run_reversed, "threads": run_chunks}
 
 
 def traced(v, f, z, out_layer, n_chunks, run="serial"):

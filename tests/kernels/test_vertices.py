@@ -4,6 +4,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import reference_mesh
+from strategies import run_reversed
 from vecslice._kernels.vertices import clean_mesh, merge_vertices
 
 coord = st.integers(-(2**30) + 1, 2**30 - 1)
@@ -55,14 +56,6 @@ def test_merge_survives_colliding_slots():
     assert (v[first[group]] == v).all()
 
 
-def _reversed_run(fn, n_chunks):
-    # chunks last to first, as threads may run them
-    out = [None] * n_chunks
-    for c in reversed(range(n_chunks)):
-        out[c] = fn(c)
-    return out
-
-
 @pytest.mark.parametrize("run", ["reversed", "threads"])
 @pytest.mark.parametrize("merge", [True, False])
 def test_clean_mesh_in_chunks_matches_the_sorting_merge(run, merge):
@@ -74,7 +67,7 @@ def test_clean_mesh_in_chunks_matches_the_sorting_merge(run, merge):
     v = rng.integers(-20, 20, size=(300_000, 3)).astype(np.int64)
     f = rng.integers(0, 300_000, size=(200_000, 3)).astype(np.int64)
     f[::7, 1] = f[::7, 0]  # repeated indices
-    runner = _reversed_run if run == "reversed" else run_chunks
+    runner = run_reversed if run == "reversed" else run_chunks
     got = clean_mesh(v, f, merge, run=runner)
     ref = reference_mesh.clean_arrays(v, f, merge=merge)
     assert got[0].tolist() == ref[0].tolist()

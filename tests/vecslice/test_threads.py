@@ -1,0 +1,78 @@
+import threading
+
+import pytest
+
+from vecslice._threads import run_chunks
+
+
+def test_every_chunk_runs_once_with_its_bounds():
+    seen = []
+    lock = threading.Lock()
+
+    def fn(lo, hi):
+        with lock:
+            seen.append((lo, hi))
+
+    bounds = [0, 3, 3, 10, 11, 40]
+    run_chunks(fn, bounds, threads=2)
+    assert sorted(seen) == [(0, 3), (3, 3), (3, 10), (10, 11), (11, 40)]
+
+
+@pytest.mark.parametrize("bounds", [[], [5]])
+def test_no_chunks_no_calls(bounds):
+    run_chunks(lambda lo, hi: pytest.fail("called"), bounds, threads=2)
+
+
+def test_chunks_run_at_the_same_time():
+    # each chunk waits for another one to arrive: only a second thread lets the
+    # first chunk finish (a serial run would time out on the barrier)
+    barrier = threading.Barrier(2, timeout=30)
+    names = set()
+
+    def fn(lo, hi):
+        names.add(threading.current_thread().name)
+        barrier.wait()
+
+    run_chunks(fn, [0, 1, 2], threads=2)
+    assert len(names) == 2
+
+
+def test_one_thread_runs_in_the_calling_thread():
+    names = []
+    run_chunks(lambda lo, hi: names.append(threading.current_thread().name),
+               [0, 1, 2, 3], threads=1)
+    assert names == [threading.current_thread().name] * 3
+
+
+def test_the_first_error_is_raised_and_no_new_chunk_starts():
+    started = []
+
+    def fn(lo, hi):
+        started.append(lo)
+        if lo == 0:
+            raise ValueError("chunk 0 failed")
+
+    with pytest.raises(ValueError, match="chunk 0 failed"):
+        run_chunks(fn, list(range(200)), threads=2)
+    assert len(started) < 199  # the hand-out stopped
+
+
+def test_nested_calls_do_not_wait_for_a_busy_pool():
+    # a chunk that itself runs chunks (the pool's helper is busy with the outer
+    # call): the inner call does its chunks itself instead of waiting
+    out = []
+    lock = threading.Lock()
+
+    def inner(lo, hi):
+        with lock:
+            out.append(lo)
+
+    def outer(lo, hi):
+        run_chunks(inner, [10 * lo, 10 * lo + 1, 10 * lo + 2], threads=2)
+
+    t = threading.Thread(target=run_chunks, args=(outer, [0, 1, 2, 3]),
+                         kwargs={"threads": 2}, daemon=True)
+    t.start()
+    t.join(60)
+    assert not t.is_alive(), "nested run_chunks deadlocked"
+    assert sorted(out) == [0, 1, 10, 11, 20, 21]
