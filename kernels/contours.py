@@ -87,26 +87,20 @@ def _paired(in_seg, in_pair, out_face, s):
     return -1 if j < 0 else out_face[j]
 
 
-_PLAN = types.Tuple((
-    types.int32[::1], I64_1D_OUT, I64_1D_OUT,  # face_lo, face_offsets, per_plane
-    I64_1D_OUT, I64_1D_OUT, I64_1D_OUT,  # in_seg, in_key, in_k
-    I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT,  # out_seg, out_face, out_key, out_k
-))
+_PLAN = types.Tuple((types.int32[::1], I64_1D_OUT, I64_1D_OUT, I64, I64))
 
 
 @kernel(_PLAN(I64_2D, I64_1D, I64_1D, I64))
 def _segment_plan(faces, twin, vert_layer, n_planes):
-    """Where each face's segments go, segments per plane, and the open ends.
+    """Where each face's segments go, segments per plane, open ends counted.
 
-    Returns ``(face_lo, face_offsets, per_plane, in_seg, in_key, in_k, out_seg,
-    out_face, out_key, out_k)``: face ``f`` crosses planes ``face_lo[f]`` and up,
-    its segments are ``face_offsets[f]:face_offsets[f + 1]``; ``per_plane[k]`` is
-    the number of segments on plane ``k``; the ``in_*`` (``out_*``) arrays list, in
-    segment order, the segments that start (end) on an edge without a twin, with
-    their crossing keyed as (edge vertices, plane).
+    Returns ``(face_lo, face_offsets, per_plane, n_in, n_out)``: face ``f`` crosses
+    planes ``face_lo[f]`` and up, its segments are
+    ``face_offsets[f]:face_offsets[f + 1]``; ``per_plane[k]`` is the number of
+    segments on plane ``k``; ``n_in`` (``n_out``) segments start (end) on an edge
+    without a twin.
     """
     n_faces = faces.shape[0]
-    n_vertices = vert_layer.shape[0]
     down_of = np.array(DOWN_EDGE, dtype=np.int64)
     up_of = np.array(UP_EDGE, dtype=np.int64)
     face_lo = np.empty(n_faces, dtype=np.int32)
@@ -135,44 +129,60 @@ def _segment_plan(faces, twin, vert_layer, n_planes):
                         n_out += 1
     for k in range(n_planes):
         per_plane[k + 1] += per_plane[k]
+    return face_lo, face_offsets, per_plane[:n_planes].copy(), n_in, n_out
+
+
+_ENDS = types.Tuple((I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT,
+                     I64_1D_OUT))
+
+
+@kernel(_ENDS(I64_2D, I64_1D, I64_1D, _I32_1D, I64_1D, I64, I64))
+def _open_ends(faces, twin, vert_layer, face_lo, face_offsets, n_in, n_out):
+    """The open ends, in segment order, keyed by their crossing (edge, plane).
+
+    Returns ``(in_seg, in_key, in_k, out_face, out_key, out_k)``: the ``n_in``
+    segments that start, and the ``n_out`` that end, on an edge without a twin
+    (counted by :func:`_segment_plan`); a start by its segment, an end by its
+    face.
+    """
+    n_faces = faces.shape[0]
+    n_vertices = vert_layer.shape[0]
+    down_of = np.array(DOWN_EDGE, dtype=np.int64)
+    up_of = np.array(UP_EDGE, dtype=np.int64)
     in_seg = np.empty(n_in, dtype=np.int64)
     in_key = np.empty(n_in, dtype=np.int64)
     in_k = np.empty(n_in, dtype=np.int64)
-    out_seg = np.empty(n_out, dtype=np.int64)
     out_face = np.empty(n_out, dtype=np.int64)
     out_key = np.empty(n_out, dtype=np.int64)
     out_k = np.empty(n_out, dtype=np.int64)
-    if n_in + n_out > 0:
-        i = 0
-        o = 0
-        for f in range(n_faces):
-            if not (twin[3 * f] < 0 or twin[3 * f + 1] < 0 or twin[3 * f + 2] < 0):
-                continue
-            l0 = vert_layer[faces[f, 0]]
-            l1 = vert_layer[faces[f, 1]]
-            l2 = vert_layer[faces[f, 2]]
-            lo = face_lo[f]
-            for k in range(lo, lo + face_offsets[f + 1] - face_offsets[f]):
-                code = _code(l0, l1, l2, k)
-                ju = up_of[code]
-                jd = down_of[code]
-                if twin[3 * f + ju] < 0:
-                    p = faces[f, ju]
-                    q = faces[f, (ju + 1) % 3]
-                    in_seg[i] = face_offsets[f] + k - lo
-                    in_key[i] = min(p, q) * n_vertices + max(p, q)
-                    in_k[i] = k
-                    i += 1
-                if twin[3 * f + jd] < 0:
-                    p = faces[f, jd]
-                    q = faces[f, (jd + 1) % 3]
-                    out_seg[o] = face_offsets[f] + k - lo
-                    out_face[o] = f
-                    out_key[o] = min(p, q) * n_vertices + max(p, q)
-                    out_k[o] = k
-                    o += 1
-    return (face_lo, face_offsets, per_plane[:n_planes].copy(), in_seg, in_key, in_k,
-            out_seg, out_face, out_key, out_k)
+    i = 0
+    o = 0
+    for f in range(n_faces):
+        if not (twin[3 * f] < 0 or twin[3 * f + 1] < 0 or twin[3 * f + 2] < 0):
+            continue
+        l0 = vert_layer[faces[f, 0]]
+        l1 = vert_layer[faces[f, 1]]
+        l2 = vert_layer[faces[f, 2]]
+        lo = np.int64(face_lo[f])
+        for k in range(lo, lo + face_offsets[f + 1] - face_offsets[f]):
+            code = _code(l0, l1, l2, k)
+            ju = up_of[code]
+            jd = down_of[code]
+            if twin[3 * f + ju] < 0:
+                p = faces[f, ju]
+                q = faces[f, (ju + 1) % 3]
+                in_seg[i] = face_offsets[f] + k - lo
+                in_key[i] = min(p, q) * n_vertices + max(p, q)
+                in_k[i] = k
+                i += 1
+            if twin[3 * f + jd] < 0:
+                p = faces[f, jd]
+                q = faces[f, (jd + 1) % 3]
+                out_face[o] = f
+                out_key[o] = min(p, q) * n_vertices + max(p, q)
+                out_k[o] = k
+                o += 1
+    return in_seg, in_key, in_k, out_face, out_key, out_k
 
 
 @kernel(types.Tuple((I64_1D_OUT, B1_1D_OUT))(I64_1D, I64_1D, I64_1D, I64_1D))
@@ -395,24 +405,23 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
     ``out_layer`` a permutation of ``range(len(z))``; |coordinates| < 2**30.
     """
     n_planes = z.shape[0]
-    (face_lo, face_offsets, per_plane, in_seg, in_key, in_k, out_seg, out_face,
-     out_key, out_k) = _segment_plan(faces, twin, vert_layer, n_planes)
+    face_lo, face_offsets, per_plane, n_in, n_out = _segment_plan(
+        faces, twin, vert_layer, n_planes)
     n_seg = int(face_offsets[-1])
     visited = np.zeros(n_seg, dtype=np.uint8)
-    if in_seg.shape[0] and out_seg.shape[0]:
-        in_pair, out_has_prev = _pair_ends(in_key, in_k, out_key, out_k)
-    else:
-        in_pair = np.full(in_seg.shape[0], -1, dtype=np.int64)
-        out_has_prev = np.zeros(out_seg.shape[0], dtype=np.bool_)
-    if out_seg.shape[0]:
-        open_coords, open_offsets, open_rings, chain_segs = _trace_open(
-            vertices, faces, twin, vert_layer, z, out_layer, face_lo,
-            face_offsets, in_seg, in_pair, out_face, out_k, out_has_prev, visited)
-    else:
+    if n_in + n_out == 0:  # a closed mesh: the open-end kernels are not compiled
+        in_seg = in_pair = out_face = np.empty(0, dtype=np.int64)
         open_coords = np.empty((0, 2), dtype=np.int64)
         open_offsets = np.zeros(1, dtype=np.int64)
         open_rings = np.zeros(n_planes + 1, dtype=np.int64)
         chain_segs = np.zeros(n_planes, dtype=np.int64)
+    else:
+        in_seg, in_key, in_k, out_face, out_key, out_k = _open_ends(
+            faces, twin, vert_layer, face_lo, face_offsets, n_in, n_out)
+        in_pair, out_has_prev = _pair_ends(in_key, in_k, out_key, out_k)
+        open_coords, open_offsets, open_rings, chain_segs = _trace_open(
+            vertices, faces, twin, vert_layer, z, out_layer, face_lo,
+            face_offsets, in_seg, in_pair, out_face, out_k, out_has_prev, visited)
 
     # closed loops: every other segment starts one vertex; each plane's vertices
     # go to its output layer's range, in the order the loops are found

@@ -84,7 +84,7 @@ def test_the_demo_compiles_only_its_kernels(tmp_path):
     assert {k.split(".")[1] for k in entry} <= top
     # reference kernels kept for the tests stay off the run path
     for ref in ("topology.edge_topology", "topology._bucket_edges",
-                "contours._pair_ends", "contours._trace_open",
+                "contours._open_ends", "contours._pair_ends", "contours._trace_open",
                 "crossings.crossing_points", "crossings.face_segments",
                 "loops.link_segments", "rings.group_rings"):
         assert ref not in compiled
