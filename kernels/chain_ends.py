@@ -47,6 +47,7 @@ from numba import types
 
 from ._jit import kernel
 from ._types import B1, I64, I64_1D, I64_2D, I64_2D_OUT
+from .sorting import stable_argsort
 
 __all__ = ["match_ends"]
 
@@ -102,7 +103,11 @@ def _first(nxt, slots, s, r, skip):
     return i if i < slots[s, _E + r] else -1
 
 
-@kernel(inline="always")
+# plain kernels, not inlined: each compiles once instead of at every call site
+_NODE = types.int64[:, ::1]  # also the location table and the search stack
+
+
+@kernel(B1(_NODE, I64, _NODE, _I64_1D_W, I64))
 def _combine(node, k, slots, sg, role):
     """Recompute node ``k``'s box and role's smallest gid; True if they changed.
 
@@ -166,10 +171,10 @@ def _build(xy, gid, role):
     key = np.empty(n, dtype=np.int64)
     for i in range(n):
         key[i] = ((1 if role[i] != 0 else 0) << 62) | gid[i]
-    o = np.argsort(key, kind="mergesort")
+    o = stable_argsort(key)
     for i in range(n):
         key[i] = ((xy[o[i], 0] + _OFF) << 31) | (xy[o[i], 1] + _OFF)
-    p = np.argsort(key, kind="mergesort")
+    p = stable_argsort(key)
     o = o[p]
     key = key[p]
     # distinct locations, by x then y
@@ -191,7 +196,7 @@ def _build(xy, gid, role):
     node[0, _LO] = 0
     node[0, _HI] = m
     px = np.arange(m)
-    py = np.argsort(ly, kind="mergesort")
+    py = stable_argsort(ly)
     upper = np.zeros(m, dtype=np.bool_)
     tmp = np.empty(m, dtype=np.int64)
     leaf = np.empty(m, dtype=np.int64)
@@ -200,7 +205,8 @@ def _build(xy, gid, role):
         if lo < 0:
             continue
         if hi - lo <= _LEAF:
-            leaf[lo:hi] = k
+            for s in range(lo, hi):
+                leaf[s] = k
             continue
         mid = (lo + hi) // 2
         wide_x = lx[px[hi - 1]] - lx[px[lo]] >= ly[py[hi - 1]] - ly[py[lo]]
@@ -208,12 +214,13 @@ def _build(xy, gid, role):
         for i in range(lo, hi):
             upper[a[i]] = i >= mid
         w = lo  # stable partition of the other order: both halves stay sorted
-        for half in (False, True):
+        for half in range(2):
             for i in range(lo, hi):
-                if upper[b[i]] == half:
+                if upper[b[i]] == (half == 1):
                     tmp[w] = b[i]
                     w += 1
-        b[lo:hi] = tmp[lo:hi]
+        for i in range(lo, hi):  # element by element: a slice copy is slow to compile
+            b[i] = tmp[i]
         node[2 * k + 1, _LO] = lo
         node[2 * k + 1, _HI] = mid
         node[2 * k + 2, _LO] = mid
@@ -256,7 +263,7 @@ def _build(xy, gid, role):
     return node, slots, leaf, order, sg, sloc
 
 
-@kernel(inline="always")
+@kernel(types.void(_NODE, _NODE, _I64_1D_W, _I64_1D_W, _I64_1D_W, I64, I64, I64))
 def _remove(node, slots, leaf, nxt, sg, i, s, r):
     """Mark sorted terminus ``i`` (role ``r``, at location ``s``) used.
 
@@ -282,7 +289,7 @@ def _remove(node, slots, leaf, nxt, sg, i, s, r):
         k = (k - 1) // 2
 
 
-@kernel(inline="always")
+@kernel(types.UniTuple(I64, 3)(_NODE, I64, I64, I64, I64, B1))
 def _bound(node, k, x, y, r, allow_reverse):
     """Lower bound ``(d2, reversed, gid)`` of node ``k``'s keys as partners.
 
@@ -318,7 +325,8 @@ def _below(d2, rev, g, bd2, brev, bgid):
     return g < bgid
 
 
-@kernel(inline="always")
+@kernel(types.UniTuple(I64, 4)(_NODE, _NODE, _I64_1D_W, _I64_1D_W, I64, I64, I64, I64,
+                                I64, B1, I64, I64, I64, I64))
 def _scan(node, slots, nxt, sg, k, x, y, r, q, allow_reverse, bd2, brev, bgid, best):
     """The best key among leaf ``k``'s candidates and ``(bd2, brev, bgid, best)``.
 
@@ -338,7 +346,8 @@ def _scan(node, slots, nxt, sg, k, x, y, r, q, allow_reverse, bd2, brev, bgid, b
     return bd2, brev, bgid, best
 
 
-@kernel(inline="always")
+@kernel(I64(_NODE, _NODE, _I64_1D_W, _I64_1D_W, _I64_1D_W, _NODE, I64, I64, I64, I64,
+            B1))
 def _best_partner(node, slots, leaf, nxt, sg, stack, q, s, r, gap2, allow_reverse):
     """Best (smallest key) free partner of ``q``, or -1 (sorted indices).
 

@@ -1,0 +1,72 @@
+"""A stable argsort kernel: numpy's result, at a fraction of numpy's compile time.
+
+``np.argsort(kind="mergesort")`` inside a kernel costs numba over a second to
+compile at every first use; this plain bottom-up merge sort compiles once, in a
+fraction of that, and returns the same permutation (the stable order).
+"""
+
+import numpy as np
+from numba import types
+
+from ._jit import kernel
+from ._types import I64, I64_1D, I64_1D_OUT
+
+__all__ = ["stable_argsort"]
+
+_RUN = 16  # runs of this length are sorted by insertion first
+
+
+@kernel(types.void(I64_1D, I64_1D, types.int64[::1], I64))
+def _merge_runs(key, src, dst, width):
+    """Merge each pair of sorted runs of ``width`` in ``src`` into ``dst`` (stable)."""
+    n = src.shape[0]
+    for lo in range(0, n, 2 * width):
+        mid = min(n, lo + width)
+        hi = min(n, lo + 2 * width)
+        i = lo
+        j = mid
+        for w in range(lo, hi):
+            # take from the left run unless the right one is strictly smaller
+            if i < mid and (j >= hi or key[src[j]] >= key[src[i]]):
+                dst[w] = src[i]
+                i += 1
+            else:
+                dst[w] = src[j]
+                j += 1
+
+
+@kernel(I64_1D_OUT(I64_1D))
+def stable_argsort(key):
+    """``np.argsort(key, kind="stable")``: indices that sort ``key``, ties in order.
+
+    Insertion sort of runs of 16, then bottom-up merges between two buffers:
+    O(n log n) time, n extra indices.
+    """
+    n = key.shape[0]
+    a = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        a[i] = i
+    for lo in range(0, n, _RUN):
+        hi = min(n, lo + _RUN)
+        for i in range(lo + 1, hi):
+            t = a[i]
+            kt = key[t]
+            j = i - 1
+            while j >= lo and key[a[j]] > kt:
+                a[j + 1] = a[j]
+                j -= 1
+            a[j + 1] = t
+    b = np.empty(n, dtype=np.int64)
+    width = _RUN
+    in_a = True
+    while width < n:
+        if in_a:
+            _merge_runs(key, a, b, width)
+        else:
+            _merge_runs(key, b, a, width)
+        in_a = not in_a
+        width *= 2
+    if not in_a:
+        for i in range(n):
+            a[i] = b[i]
+    return a
