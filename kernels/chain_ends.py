@@ -171,12 +171,16 @@ def _build(xy, gid, role):
     key = np.empty(n, dtype=np.int64)
     for i in range(n):
         key[i] = ((1 if role[i] != 0 else 0) << 62) | gid[i]
-    o = stable_argsort(key)
+    o1 = stable_argsort(key)
     for i in range(n):
-        key[i] = ((xy[o[i], 0] + _OFF) << 31) | (xy[o[i], 1] + _OFF)
+        key[i] = ((xy[o1[i], 0] + _OFF) << 31) | (xy[o1[i], 1] + _OFF)
     p = stable_argsort(key)
-    o = o[p]
-    key = key[p]
+    o = np.empty(n, dtype=np.int64)
+    for i in range(n):  # o1[p]: a loop compiles faster than fancy indexing
+        o[i] = o1[p[i]]
+    for i in range(n):  # key[p], in place of o1
+        o1[i] = key[p[i]]
+    key = o1
     # distinct locations, by x then y
     first = np.empty(n + 1, dtype=np.int64)
     m = 0
@@ -195,8 +199,12 @@ def _build(xy, gid, role):
     node = np.full((n_nodes, _N_NODE), -1, dtype=np.int64)
     node[0, _LO] = 0
     node[0, _HI] = m
-    px = np.arange(m)
+    # the locations by x (they are sorted by x, then y) and by y, as rows 0, 1
+    by = np.empty((2, m), dtype=np.int64)
     py = stable_argsort(ly)
+    for j in range(m):
+        by[0, j] = j
+        by[1, j] = py[j]
     upper = np.zeros(m, dtype=np.bool_)
     tmp = np.empty(m, dtype=np.int64)
     leaf = np.empty(m, dtype=np.int64)
@@ -209,18 +217,19 @@ def _build(xy, gid, role):
                 leaf[s] = k
             continue
         mid = (lo + hi) // 2
-        wide_x = lx[px[hi - 1]] - lx[px[lo]] >= ly[py[hi - 1]] - ly[py[lo]]
-        a, b = (px, py) if wide_x else (py, px)
+        wide_x = (lx[by[0, hi - 1]] - lx[by[0, lo]]
+                  >= ly[by[1, hi - 1]] - ly[by[1, lo]])
+        a = 0 if wide_x else 1  # split this order; partition the other one
         for i in range(lo, hi):
-            upper[a[i]] = i >= mid
+            upper[by[a, i]] = i >= mid
         w = lo  # stable partition of the other order: both halves stay sorted
         for half in range(2):
             for i in range(lo, hi):
-                if upper[b[i]] == (half == 1):
-                    tmp[w] = b[i]
+                if upper[by[1 - a, i]] == (half == 1):
+                    tmp[w] = by[1 - a, i]
                     w += 1
         for i in range(lo, hi):  # element by element: a slice copy is slow to compile
-            b[i] = tmp[i]
+            by[1 - a, i] = tmp[i]
         node[2 * k + 1, _LO] = lo
         node[2 * k + 1, _HI] = mid
         node[2 * k + 2, _LO] = mid
@@ -232,7 +241,7 @@ def _build(xy, gid, role):
     slots = np.empty((m, 6), dtype=np.int64)
     w = 0
     for s in range(m):
-        j = px[s]
+        j = by[0, s]
         slots[s, _SX] = lx[j]
         slots[s, _SY] = ly[j]
         slots[s, _F] = w
