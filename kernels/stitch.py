@@ -31,6 +31,7 @@ from numba import types
 from ._jit import kernel
 from ._types import B1, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 from .chain_ends import match_ends
+from .sorting import stable_argsort
 
 # columns of the per-chain state table (group fields are valid on roots only)
 _PARENT = 0  # union-find parent
@@ -176,13 +177,20 @@ def _candidate_order(cand, gap2, id0):
             v = (v << b_id) | (cand[k, _C_J] - id0)
             key[k] = (v << 1) | cand[k, _C_SUB]
         # keys are unique: any sort gives the same order; merge sort is O(m log m)
-        return np.argsort(key, kind="mergesort")
-    order = np.argsort(np.ascontiguousarray(cand[:, _C_SUB]), kind="mergesort")
+        return stable_argsort(key)
+    key = np.empty(m, dtype=np.int64)
+    for k in range(m):
+        key[k] = cand[k, _C_SUB]
+    order = stable_argsort(key)
+    tmp = np.empty(m, dtype=np.int64)
     for col in (_C_J, _C_I, _C_REV, _C_D2):
-        key = np.empty(m, dtype=np.int64)
         for k in range(m):
             key[k] = cand[order[k], col]
-        order = order[np.argsort(key, kind="mergesort")]
+        p = stable_argsort(key)
+        for k in range(m):  # order[p], as loops: quicker to compile
+            tmp[k] = order[p[k]]
+        for k in range(m):
+            order[k] = tmp[k]
     return order
 
 
@@ -214,13 +222,17 @@ def _stitch_round(coords, ring_offsets, st, c0, c1, max_gap, allow_reverse):
             term[i, _T_GID] = st[_find(st, c), _GID]
             term[i, _T_TAIL] = role
             i += 1
-    pairs = match_ends(
-        np.ascontiguousarray(term[:, _T_X : _T_Y + 1]),
-        np.ascontiguousarray(term[:, _T_GID]),
-        np.ascontiguousarray(term[:, _T_TAIL]),
-        gap2,
-        allow_reverse,
-    )
+    # the columns match_ends reads, copied by loops (slices of a 2-D array and
+    # np.ascontiguousarray are slow to compile)
+    xy = np.empty((n_term, 2), dtype=np.int64)
+    t_gid = np.empty(n_term, dtype=np.int64)
+    t_role = np.empty(n_term, dtype=np.int64)
+    for i in range(n_term):
+        xy[i, 0] = term[i, _T_X]
+        xy[i, 1] = term[i, _T_Y]
+        t_gid[i] = term[i, _T_GID]
+        t_role[i] = term[i, _T_TAIL]
+    pairs = match_ends(xy, t_gid, t_role, gap2, allow_reverse)
     m = pairs.shape[0]
     if m == 0:
         return 0
@@ -397,8 +409,9 @@ def stitch_chains(coords, ring_offsets, layer_offsets, max_gap_in_order, max_gap
             else:
                 op_layer[k + 1] += 1
                 n_op_v += st[g, _NV]
-    cl_layer = np.cumsum(cl_layer)
-    op_layer = np.cumsum(op_layer)
+    for k in range(n_layers):
+        cl_layer[k + 1] += cl_layer[k]
+        op_layer[k + 1] += op_layer[k]
     cl_coords = np.empty((n_cl_v, 2), dtype=np.int64)
     op_coords = np.empty((n_op_v, 2), dtype=np.int64)
     cl_rings = np.zeros(cl_layer[n_layers] + 1, dtype=np.int64)
