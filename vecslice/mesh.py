@@ -168,9 +168,8 @@ class Mesh:
             from vecslice._kernels import topology
             from vecslice._threads import run_chunks
 
-            twins = topology.half_edge_twins(self.faces, self.vertices.shape[0],
-                                             run=run_chunks)
-            twins.flags.writeable = False
+            n = self.vertices.shape[0]
+            twins = _freeze(topology.half_edge_twins(self.faces, n, run=run_chunks))
             object.__setattr__(self, "_twins", twins)
         return twins
 

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from vecslice._kernels.vertices import clean_mesh
 from vecslice._threads import run_chunks
 from vecslice.nesting import outermost_container
+from vecslice.ragged import freeze
 
 __all__ = ["LoadInfo", "MeshReport", "build_report", "clean_arrays"]
 
@@ -421,6 +422,6 @@ def build_report(
         duplicate_faces=int(f.shape[0] - (int(group.max()) + 1 if f.size else 0)),
         zero_area_faces=zero_area_faces(v, f),
         volume=float(face_volumes(v, f).sum()),
-        bounds=np.stack([v.min(axis=0), v.max(axis=0)]),
+        bounds=freeze(np.stack([v.min(axis=0), v.max(axis=0)])),
         load_info=load_info,
     )
