@@ -1,6 +1,7 @@
 """STYLE.md conventions as tests: every kernel is typed, cached, nogil, exact."""
 
 import importlib
+import inspect
 import pkgutil
 
 import numba
@@ -23,6 +24,28 @@ def _kernels():
 
 KERNELS = list(_kernels())
 DECLARED = [p for p in KERNELS if p.values[0].targetoptions.get("inline") != "always"]
+
+# parfors cost seconds each to compile on a first run; new parallel work is a plain
+# nogil kernel over a chunk (lo, hi) and a driver whose `run` runs the chunks
+# (vecslice._threads.run_chunks). These kernels still use parallel=True:
+PARALLEL_ALLOWED = {
+    "adaptive.face_slopes", "crossings.crossing_points", "crossings.face_segments",
+    "cura_loops.basic_loops", "cura_loops.emit_rings", "cura_mesh.meld_corners",
+    "cura_mesh.face_neighbours", "cura_segments.classify_slots",
+    "cura_segments.fill_segments", "metrics.compare_rings",
+    "simplify._simplify_core", "topology.edge_topology",
+}
+
+
+def _drivers():
+    for info in pkgutil.iter_modules(kernels.__path__):
+        if info.name.startswith("_"):  # _jit, _types: the machinery
+            continue
+        module = importlib.import_module(f"vecslice._kernels.{info.name}")
+        for name, obj in vars(module).items():
+            if (inspect.isfunction(obj) and obj.__module__ == module.__name__
+                    and not isinstance(obj, CPUDispatcher)):
+                yield pytest.param(obj, id=f"{info.name}.{name}")
 
 
 @pytest.mark.skipif(numba.config.DISABLE_JIT, reason="NUMBA_DISABLE_JIT=1: no kernels")
@@ -77,3 +100,19 @@ def test_first_call_compiles_the_declared_signature_only():
 def test_fastmath_is_refused():
     with pytest.raises(ValueError, match="fastmath"):
         kernel(fastmath=True)
+
+
+def test_only_the_listed_kernels_are_parfors():
+    parallel = {p.id for p in KERNELS if p.values[0].targetoptions.get("parallel")}
+    assert parallel <= PARALLEL_ALLOWED, parallel - PARALLEL_ALLOWED
+
+
+@pytest.mark.parametrize("driver", list(_drivers()))
+def test_plain_functions_in_kernels_are_chunk_drivers(driver):
+    # besides kernels, a kernel module holds only drivers: Python that chains
+    # kernels and hands chunks of work to `run` (serial unless the caller passes
+    # a thread pool), so that the library's calls run the chunks on threads
+    from vecslice._kernels._jit import run_serial
+
+    run = inspect.signature(driver).parameters.get("run")
+    assert run is not None and run.default is run_serial, "add run=run_serial"
