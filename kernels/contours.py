@@ -22,6 +22,7 @@ from numba import types
 from ._jit import kernel, run_serial
 from ._types import B1_1D, B1_1D_OUT, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 from .crossings import DOWN_EDGE, UP_EDGE
+from .sorting import stable_argsort
 
 _OUT = types.Tuple(
     (I64_2D_OUT, I64_1D_OUT, I64_1D_OUT, I64_2D_OUT, I64_1D_OUT, I64_1D_OUT)
@@ -185,6 +186,20 @@ def _open_ends(faces, twin, vert_layer, face_lo, face_offsets, n_in, n_out):
     return in_seg, in_key, in_k, out_face, out_key, out_k
 
 
+@kernel(I64_1D_OUT(I64_1D, I64_1D))
+def _by_key_then_plane(key, k):
+    """Order of the ends by (key, plane), ties in index order (stable sorts)."""
+    n = key.shape[0]
+    by_plane = stable_argsort(k)
+    gathered = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        gathered[i] = key[by_plane[i]]
+    p = stable_argsort(gathered)
+    for i in range(n):
+        gathered[i] = by_plane[p[i]]
+    return gathered
+
+
 @kernel(types.Tuple((I64_1D_OUT, B1_1D_OUT))(I64_1D, I64_1D, I64_1D, I64_1D))
 def _pair_ends(in_key, in_k, out_key, out_k):
     """Join open ends: the k-th end at a crossing (by segment) joins the k-th start.
@@ -197,10 +212,8 @@ def _pair_ends(in_key, in_k, out_key, out_k):
     in_pair = np.full(n_in, -1, dtype=np.int64)
     out_has_prev = np.zeros(n_out, dtype=np.bool_)
     if n_in > 0 and n_out > 0:
-        o1 = np.argsort(in_k, kind="mergesort")
-        order_in = o1[np.argsort(in_key[o1], kind="mergesort")]
-        o2 = np.argsort(out_k, kind="mergesort")
-        order_out = o2[np.argsort(out_key[o2], kind="mergesort")]
+        order_in = _by_key_then_plane(in_key, in_k)
+        order_out = _by_key_then_plane(out_key, out_k)
         i = 0
         o = 0
         while i < n_in and o < n_out:

@@ -85,6 +85,7 @@ def test_the_demo_compiles_only_its_kernels(tmp_path):
     # reference kernels kept for the tests stay off the run path
     for ref in ("topology.edge_topology", "topology._bucket_edges",
                 "contours._open_ends", "contours._pair_ends", "contours._trace_open",
+                "contours._by_key_then_plane",
                 "crossings.crossing_points", "crossings.face_segments",
                 "loops.link_segments", "rings.group_rings"):
         assert ref not in compiled
