@@ -210,32 +210,35 @@ def _pack_half_edges(faces, n_vertices):
 
 @kernel(types.void(types.int64[::1], I64, I64))
 def _heapsort(a, lo, hi):
-    """Sort ``a[lo:hi]`` in place, ascending (heapsort: O(n log n), no scratch)."""
+    """Sort ``a[lo:hi]`` in place, ascending (heapsort: O(n log n), no scratch).
+
+    One loop: first it builds the max-heap (sifting down from the middle), then
+    it moves the top to the end and sifts the new root down, until one is left.
+    """
     n = hi - lo
-    for start in range(n // 2 - 1, -1, -1):
-        _sift_down(a, lo, start, n)
-    for end in range(n - 1, 0, -1):
-        t = a[lo]
-        a[lo] = a[lo + end]
-        a[lo + end] = t
-        _sift_down(a, lo, 0, end)
-
-
-@kernel(types.void(types.int64[::1], I64, I64, I64))
-def _sift_down(a, lo, i, n):
-    """Restore the max-heap ``a[lo:lo + n]`` below node ``i``."""
-    x = a[lo + i]
-    while True:
-        child = 2 * i + 1
-        if child >= n:
-            break
-        if child + 1 < n and a[lo + child + 1] > a[lo + child]:
-            child += 1
-        if a[lo + child] <= x:
-            break
-        a[lo + i] = a[lo + child]
-        i = child
-    a[lo + i] = x
+    start = n // 2
+    end = n
+    while end > 1:
+        if start > 0:  # building the heap
+            start -= 1
+        else:  # the largest to the end
+            end -= 1
+            t = a[lo + end]
+            a[lo + end] = a[lo]
+            a[lo] = t
+        root = start  # sift a[lo + root] down within a[lo:lo + end]
+        x = a[lo + root]
+        while True:
+            child = 2 * root + 1
+            if child >= end:
+                break
+            if child + 1 < end and a[lo + child + 1] > a[lo + child]:
+                child += 1
+            if a[lo + child] <= x:
+                break
+            a[lo + root] = a[lo + child]
+            root = child
+        a[lo + root] = x
 
 
 @kernel(types.void(I64_1D, types.int64[::1], I64, I64, types.int64[::1]))

@@ -108,3 +108,17 @@ def test_half_edge_twins_in_chunks_equal_serial_and_edge_topology(run):
     assert got.tolist() == half_edge_twins(faces, n).tolist()
     assert got.tolist() == edge_topology(faces, n)[2].tolist()
     assert (got >= 0).sum() > 5_000  # the case has matched edges to check
+
+
+@given(st.lists(st.integers(-(2**63), 2**63 - 1) | st.integers(-3, 3), max_size=120),
+       st.data())
+def test_heapsort_sorts_the_range_and_nothing_else(values, data):
+    from vecslice._kernels.topology import _heapsort
+
+    a = np.array(values, dtype=np.int64)
+    lo = data.draw(st.integers(0, len(a)))
+    hi = data.draw(st.integers(lo, len(a)))
+    expect = a.copy()
+    expect[lo:hi] = np.sort(expect[lo:hi])
+    _heapsort(a, lo, hi)
+    assert a.tolist() == expect.tolist()

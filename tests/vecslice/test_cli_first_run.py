@@ -54,7 +54,7 @@ DEMO_KERNELS = {
     "rings": {"take_rings", "ring_area2"},
 }
 DEMO_CALLEES = {
-    "topology": {"_heapsort", "_sift_down"},
+    "topology": {"_heapsort"},
     "contours": {"_point", "_paired"},
 }
 # kernels/simplify.py (and the geometry helpers it calls) is tuned for its own
