@@ -1,10 +1,11 @@
 """CuraEngine-exact simplification of rings and polylines, plus ring clean-up kernels.
 
-One call processes a whole ragged array ``(coords, ring_offsets)``. Each ring is
-simplified independently into a buffer the size of the input (ring ``r`` writes at
-``ring_offsets[r]``), and the buffer is then compacted in place; rings whose
-result is empty keep a zero-length range, so output ring ``r`` still belongs to
-input ring ``r``.
+One call processes a whole ragged array ``(coords, ring_offsets)``. Chunks of
+rings are simplified in parallel, each chunk writing its results back to back
+from its own first input offset into a scratch buffer (so only the output's
+pages are touched), and the chunks are then copied into the output in parallel;
+rings whose result is empty keep a zero-length range, so output ring ``r`` still
+belongs to input ring ``r``.
 
 The algorithm is CuraEngine's ``Simplify::simplify`` (see ``spec/SIMPLIFY.md``):
 a min-heap of ``(importance, index)`` with stale entries re-pushed, passes until
@@ -13,9 +14,10 @@ replacement of a short edge by the intersection of its neighbouring edges.
 CuraEngine walks a ``to_delete`` array to find the nearest kept neighbours; here a
 doubly linked list over the kept vertices gives the same neighbours in O(1).
 The removals happen in exactly CuraEngine's order, with much less work: pops that
-cannot change anything are skipped, importances are recomputed only where their
-inputs changed, and the queue is a bucket queue for the usual keys (see
-``_simplify_one``).
+cannot change anything are skipped, a pass after the first looks only at the
+vertices whose entry can change anything, importances are recomputed only where
+their inputs changed (the first pass computes them in a vectorised loop), and
+the queue is a bucket queue for the usual keys (see ``_simplify_one``).
 
 Preconditions (the caller checks them): |coords| < 2**30; ring_offsets starts at
 0, never decreases and ends at len(coords); 0 <= thresholds < 2**31; widths, where
@@ -29,7 +31,6 @@ from numba.cpython.unsafe.numbers import trailing_zeros
 from ._jit import kernel
 from ._types import B1, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 from .geometry import (
-    dist2_from_line,
     dist2_from_segment,
     line_line_intersection,
     tdiv,
@@ -43,8 +44,9 @@ MIN_RES2 = 25  # CuraEngine's min_resolution (5 µm), squared
 # hot helpers are inlined (inline="always") and take scalars only: inlined array
 # arguments cost an atomic reference count update per array and call
 _W1 = types.int64[::1]  # writable work arrays
-# keys d*d, 0 <= d < nb, go to buckets (one bitmap over the ring's vertex
-# indices each) instead of the heap when max_deviation < _MAX_BUCKETS
+# keys d*d, 0 <= d < 2 * (max_deviation + 1), go to buckets (one bitmap over the
+# ring's vertex indices each) instead of the heap when
+# max_deviation < _MAX_BUCKETS
 _MAX_BUCKETS = 65
 
 
@@ -67,6 +69,26 @@ def _area_deviation(bx, by, bw, vx, vy, vw, ax, ay, aw):
     return wd * ab
 
 
+@kernel(I64(I64, I64, I64, I64, I64, I64), inline="always")
+def _dist2_line(px, py, ax, ay, bx, by):
+    """``dist2_from_line(p, a, b)``, bit for bit, with the length kept a double.
+
+    ``rint(sqrt(s))`` is integer valued and below 2**32, so vsize's conversion
+    to int64 and back to double changes nothing; a wrapped (negative) squared
+    length gives vsize's INT64_MIN.
+    """
+    sx = bx - ax
+    sy = by - ay
+    s = sx * sx + sy * sy
+    ab = np.rint(np.sqrt(np.float64(s))) if s >= 0 else np.float64(INT64_MIN)
+    if ab == 0.0:
+        d = vsize(px - ax, py - ay)
+    else:
+        area2 = (px - bx) * (py - ay) + (ax - px) * (py - by)
+        d = np.int64(np.float64(abs(area2)) / ab)
+    return d * d
+
+
 @kernel(
     I64(B1, I64, I64, I64, I64, I64, I64, I64, I64, I64, I64, I64), inline="always"
 )
@@ -77,7 +99,7 @@ def _importance(has_w, bx, by, bw, vx, vy, vw, ax, ay, aw, max_res2, max_area):
     """
     if has_w and _area_deviation(bx, by, bw, vx, vy, vw, ax, ay, aw) > max_area:
         return INT64_MAX
-    d2 = dist2_from_line(vx, vy, bx, by, ax, ay)
+    d2 = _dist2_line(vx, vy, bx, by, ax, ay)
     lb = (bx - vx) * (bx - vx) + (by - vy) * (by - vy)
     la = (ax - vx) * (ax - vx) + (ay - vy) * (ay - vy)
     # unpredictable on noisy input: one select instead of branches
@@ -150,14 +172,47 @@ def _push(hk, hi, size, key, idx):
 
 
 @kernel(I64(I64, I64), inline="always")
-def _bucket(key, nb):
-    """Bucket of a queue key: d if key == d*d with 0 <= d < nb, else -1 (heap)."""
-    if key < 0 or key >= nb * nb:
-        return -1
-    d = np.int64(np.sqrt(np.float64(key)))  # exact for these small squares
-    if d * d == key:
-        return d
+def _high_bucket(key, nb2):
+    """Bucket of a queue key not in the look-up table: d if key == d*d < nb2.
+
+    Else -1 (the heap). These are rare: stale keys above max_deviation². The
+    double square root of a perfect square below 2**52 is exact.
+    """
+    if key < nb2:
+        d = np.int64(np.sqrt(np.float64(key)))
+        if d * d == key:
+            return d
     return -1
+
+
+@kernel(types.void(_W1, _W1, _W1, I64, I64), inline="always")
+def _importance_run(px, py, imp, n, max_res2):
+    """``_importance`` (no widths) of vertices 1 .. n-2, for the first pass.
+
+    Each vertex lies between its index neighbours; the body is branch-free so
+    that the loop vectorises. Same values as ``_importance``: in the first pass
+    |coords| < 2**30, so the squared sums cannot wrap, and rint(sqrt) is an
+    integer-valued double already.
+    """
+    for i in range(1, n - 1):
+        bx = px[i - 1]
+        by = py[i - 1]
+        vx = px[i]
+        vy = py[i]
+        ax = px[i + 1]
+        ay = py[i + 1]
+        dx = ax - bx
+        dy = ay - by
+        ab = np.rint(np.sqrt(np.float64(dx * dx + dy * dy)))
+        area2 = abs((vx - ax) * (vy - by) + (bx - vx) * (vy - ay))
+        lb = (bx - vx) * (bx - vx) + (by - vy) * (by - vy)
+        la = (ax - vx) * (ax - vx) + (ay - vy) * (ay - vy)
+        d = np.int64(np.float64(area2) / max(ab, 1.0))
+        d0 = np.int64(np.rint(np.sqrt(np.float64(lb))))  # line of length 0
+        d = d0 if ab == 0.0 else d
+        d2 = d * d
+        long_edges = (d2 > MIN_RES2) & (lb > max_res2) & (la > max_res2)
+        imp[i] = INT64_MAX if long_edges else d2
 
 
 # Vertex flags of _simplify_one. A vertex has at most one queue entry per pass,
@@ -167,9 +222,11 @@ _FAILED = 2  # a removal attempt failed and its window (itself and two kept
 #              neighbours on each side) is unchanged since: a retry fails too
 _DELETED = 4
 _INHEAP = 8  # its entry is in the heap
-_POPPED = 16  # its entry of this pass is gone (popped, or passed over)
-# A kept vertex with neither _INHEAP nor _POPPED has a "side" entry: kept out
-# of the heap because popping it would change nothing (see _simplify_one).
+_CAND = 16  # listed as a candidate for the next pass
+_EPOCH = 5  # fl >> _EPOCH: the last pass in which its entry was gone (popped,
+#             or passed over); "popped" below means: in the current pass
+# A kept vertex neither in the heap nor popped has a "side" entry: kept out of
+# the heap because popping it would change nothing (see _simplify_one).
 
 
 @kernel(B1(I64, I64, I64, I64, I64, I64), inline="always")
@@ -187,21 +244,22 @@ def _tiny(x0, y0, x1, y1, x2, y2):
 
 @kernel(
     I64(_W1, _W1, _W1, B1, I64, B1, I64, I64, I64, _W1, _W1, _W1, _W1, _W1,
-        _W1, _W1, _W1, _W1, I64)
+        _W1, _W1, _W1, _W1, I64, _W1, I64)
 )
 def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
-                  prv, nxt, fl, imp, hk, hi, tq, bits, bq, nb):
+                  prv, nxt, fl, imp, hk, hi, tq, bits, bq, nb, cand, nl):
     """Simplify the ring held in ``px[:n], py[:n]`` in place; return its new size.
 
     Kept vertices are compacted to the front of px/py/pw, in their original order.
-    Work arrays (length >= n): prv, nxt, fl, imp, hk, hi; tq (length >= 12);
-    bits (length >= nb * ceil(n / 64)) and bq (length 2 * nb + nb * nb, its
-    tail holding the bucket of every key below nb * nb: d where key == d * d,
-    else -1) for ``nb`` buckets (0: the heap alone).
+    Work arrays (length >= n): prv, nxt, fl, imp, hk, hi, cand; tq (length >=
+    12); bits (length >= nb * ceil(n / 64)) and bq (length 2 * nb + nl * nl, its
+    tail holding the bucket of every key below nl * nl: d where key == d * d,
+    else -1) for ``nb`` buckets (0: the heap alone), nl <= nb.
 
     The priority queue pops (key, index) in increasing order. It is a bucket
     queue for the keys d*d with d < nb (importances are squared integer
-    distances, so nearly all keys <= max_dev² are such squares): bucket d is a
+    distances; nl = max_dev + 1 buckets hold every key <= max_dev², the others
+    the stale keys just above, of entries whose window changed): bucket d is a
     bitmap over the vertex indices, scanned from its lowest possibly set word;
     other keys go to a binary heap (hk, hi), and the smaller of both heads
     pops first.
@@ -223,7 +281,13 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
       which gives the value CuraEngine recomputes at every pop;
     * a stale entry (k, i) whose importance dropped to cur < k would be
       re-pushed as the smallest entry and popped next: it is handled at once;
-    * a pass whose queue starts empty removes nothing: the loop ends.
+    * a pass whose queue starts empty removes nothing: the loop ends;
+    * at the end of a pass the queue is empty, and a kept vertex can enter the
+      next pass's queue only if it is ``_DIRTY`` or its ``_FAILED`` was cleared,
+      that is if its window changed after its entry was popped (or passed
+      over) in this pass: such vertices are listed (``cand``), and the next
+      pass looks at them alone (the first pass at every vertex). "Popped in
+      this pass" is the pass number kept in the flags' high bits (``_EPOCH``).
     (In this description "heap" means the whole priority queue.)
     """
     min_size = 3 if closed else 2
@@ -234,27 +298,47 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
     for i in range(n):
         prv[i] = i - 1
         nxt[i] = i + 1
-        fl[i] = _DIRTY
     prv[0] = n - 1
     nxt[n - 1] = 0
+    if has_w:
+        for i in range(n):
+            fl[i] = _DIRTY
+    else:
+        _importance_run(px, py, imp, n, max_res2)
+        for i in range(n):
+            fl[i] = 0
+        fl[0] = _DIRTY
+        fl[n - 1] = _DIRTY
     nw = (n + 63) >> 6
-    lut = 2 * nb  # bq[lut + key]: d if key == d*d (d < nb), else -1
+    lut = 2 * nb  # bq[lut + key]: d if key == d*d (d < nl), else -1
     nb2 = nb * nb
+    nl2 = nl * nl
     for q in range(nb * nw):
         bits[q] = 0
     for d in range(nb):
         bq[d] = 0  # entries in bucket d
         bq[nb + d] = nw  # no set bit in bucket d below this word
+    nc = n  # candidates of the first pass: every vertex
+    for i in range(n):
+        cand[i] = i
     removed = -1
+    pas = 0
     # every pass that continues removes >= 1 vertex, so at most n passes
     while n - removed > min_size and removed != 0:
         removed = 0
+        pas += 1
+        popped = pas << _EPOCH
         size = 0  # heap entries
         nbk = 0  # bucket entries
         dmin = nb  # no entry in a bucket below dmin
-        for i in range(n):
-            f = fl[i]
+        # only candidates can have an entry that changes anything: every other
+        # kept vertex has an unchanged importance, and it is > max_dev² or a
+        # removal is known to fail
+        for c in range(nc):
+            i = cand[c]
+            f = fl[i] & ~_CAND
             if f & _DELETED:
+                fl[i] = f
                 continue
             if f & _DIRTY:
                 if not closed and (i == 0 or i == n - 1):
@@ -268,7 +352,8 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
                 f ^= _DIRTY
             k = imp[i]
             if k <= max_dev2 and (f & _FAILED) == 0:
-                d = bq[lut + k] if 0 <= k < nb2 else -1
+                d = (bq[lut + k] if 0 <= k < nl2
+                     else _high_bucket(k, nb2))
                 if d >= 0:
                     w = i >> 6
                     bits[d * nw + w] |= np.int64(1) << (i & 63)
@@ -280,10 +365,9 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
                     hk[size] = k
                     hi[size] = i
                     size += 1
-                f = (f & ~_POPPED) | _INHEAP
-            else:
-                f &= ~(_INHEAP | _POPPED)
+                f |= _INHEAP
             fl[i] = f
+        nc = 0
         for pos in range(size // 2 - 1, -1, -1):
             _sift_down(hk, hi, pos, size)
         hwk = INT64_MIN
@@ -332,7 +416,8 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
                 f ^= _DIRTY
                 if cur > k:  # re-push; dirty implies not _FAILED
                     if cur <= max_dev2:
-                        d = bq[lut + cur] if 0 <= cur < nb2 else -1
+                        d = (bq[lut + cur] if 0 <= cur < nl2
+                             else _high_bucket(cur, nb2))
                         if d >= 0:
                             w = i >> 6
                             bits[d * nw + w] |= np.int64(1) << (i & 63)
@@ -350,7 +435,7 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
                 # cur < k: the re-pushed entry (cur, i) would be the smallest
                 # (all others are > (k, i)), popped at once: go on with it
                 k = cur
-            f = (f ^ _INHEAP) | _POPPED
+            f = ((f & ((1 << _EPOCH) - 1)) ^ _INHEAP) | popped
             if k > max_dev2:
                 fl[i] = f
                 continue
@@ -412,24 +497,30 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
             for q in range(nt):
                 j = tq[2 * q]
                 f = (fl[j] & ~_FAILED) | tq[2 * q + 1]
-                if (f & (_INHEAP | _POPPED | _DELETED)) == 0:  # side entry
-                    kj = imp[j]
-                    if kj > hwk or (kj == hwk and j > hwi):  # not passed yet
-                        if (f & _DIRTY) != 0 or kj <= max_dev2:
-                            d = bq[lut + kj] if 0 <= kj < nb2 else -1
-                            if d >= 0:
-                                w = j >> 6
-                                bits[d * nw + w] |= np.int64(1) << (j & 63)
-                                bq[d] += 1
-                                bq[nb + d] = min(bq[nb + d], w)
-                                dmin = min(dmin, d)
-                                nbk += 1
-                            else:
-                                _push(hk, hi, size, kj, j)
-                                size += 1
-                            f |= _INHEAP
-                    else:
-                        f |= _POPPED
+                if (f & _INHEAP) == 0:
+                    if (f >> _EPOCH) != pas:  # side entry
+                        kj = imp[j]
+                        if kj > hwk or (kj == hwk and j > hwi):  # not passed yet
+                            if (f & _DIRTY) != 0 or kj <= max_dev2:
+                                d = (bq[lut + kj] if 0 <= kj < nl2
+                                     else _high_bucket(kj, nb2))
+                                if d >= 0:
+                                    w = j >> 6
+                                    bits[d * nw + w] |= np.int64(1) << (j & 63)
+                                    bq[d] += 1
+                                    bq[nb + d] = min(bq[nb + d], w)
+                                    dmin = min(dmin, d)
+                                    nbk += 1
+                                else:
+                                    _push(hk, hi, size, kj, j)
+                                    size += 1
+                                f |= _INHEAP
+                        else:
+                            f = (f & ((1 << _EPOCH) - 1)) | popped
+                    if (f >> _EPOCH) == pas and (f & _CAND) == 0:
+                        cand[nc] = j  # popped: a candidate for the next pass
+                        nc += 1
+                        f |= _CAND
                 fl[j] = f
     m = 0
     for i in range(n):
@@ -462,7 +553,9 @@ def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
     n_all = coords.shape[0]
     max_res2 = max_resolution * max_resolution
     max_dev2 = max_deviation * max_deviation
-    nb = max_deviation + 1 if max_deviation < _MAX_BUCKETS else 0
+    # lut buckets: every key <= max_dev²; more buckets for the stale keys above
+    nl = max_deviation + 1 if max_deviation < _MAX_BUCKETS else 0
+    nb = 2 * nl
     # chunks of consecutive rings with about equal vertex counts
     n_chunks = min(n_rings, 64)
     bounds = np.zeros(n_chunks + 1, np.int64)
@@ -473,6 +566,8 @@ def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
             r += 1
         bounds[c] = r
     bounds[n_chunks] = n_rings
+    # each chunk writes its results back to back from its first input offset:
+    # only the pages of the output are touched
     buf = np.empty((n_all, 2), np.int64)
     buf_w = np.empty(n_all if has_w else 0, np.int64)
     counts = np.zeros(n_rings, np.int64)
@@ -492,10 +587,12 @@ def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
         hk = np.empty(max_len, np.int64)
         hi = np.empty(max_len, np.int64)
         tq = np.empty(12, np.int64)
+        cand = np.empty(max_len, np.int64)
         bits = np.empty(nb * ((max_len + 63) >> 6), np.int64)
-        bq = np.full(2 * nb + nb * nb, -1, np.int64)
-        for d in range(nb):
+        bq = np.full(2 * nb + nl * nl, -1, np.int64)
+        for d in range(nl):
             bq[2 * nb + d * d] = d
+        pos = ring_offsets[r0]
         for rr in range(r0, r1):
             start = ring_offsets[rr]
             n = ring_offsets[rr + 1] - start
@@ -506,12 +603,13 @@ def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
                     pw[k] = widths[start + k]
             m = _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2,
                               max_area_deviation, prv, nxt, fl, imp, hk, hi, tq,
-                              bits, bq, nb)
+                              bits, bq, nb, cand, nl)
             for k in range(m):
-                buf[start + k, 0] = px[k]
-                buf[start + k, 1] = py[k]
+                buf[pos + k, 0] = px[k]
+                buf[pos + k, 1] = py[k]
                 if has_w:
-                    buf_w[start + k] = pw[k]
+                    buf_w[pos + k] = pw[k]
+            pos += m
             counts[rr] = m
     new_offsets = np.empty(n_rings + 1, np.int64)
     new_offsets[0] = 0
@@ -520,10 +618,10 @@ def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
     j = new_offsets[n_rings]
     out = np.empty((j, 2), np.int64)
     out_w = np.empty(j if has_w else 0, np.int64)
-    for rr in range(n_rings):
-        src = ring_offsets[rr]
-        dst = new_offsets[rr]
-        for k in range(counts[rr]):
+    for c in prange(n_chunks):
+        src = ring_offsets[bounds[c]]
+        dst = new_offsets[bounds[c]]
+        for k in range(new_offsets[bounds[c + 1]] - dst):
             out[dst + k, 0] = buf[src + k, 0]
             out[dst + k, 1] = buf[src + k, 1]
             if has_w:
