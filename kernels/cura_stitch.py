@@ -15,12 +15,11 @@ from numba import types
 
 from ._jit import kernel
 from ._types import B1, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+from .chain_ends import match_ends
 
 _W = types.int64[::1]
 _W2 = types.int64[:, ::1]
 _INVALID = -1
-_CELL_OFF = 2**30  # cell + offset in [1, 2**31) for |coords| < 2**30
-_CELL_MUL = 2**31  # (x cell) * 2**31 + (y cell) < 2**62: no overflow
 
 _CONNECT_OUT = types.Tuple(
     (I64_2D_OUT, I64_1D_OUT, I64_1D_OUT, I64_2D_OUT, I64_1D_OUT, I64_1D_OUT,
@@ -99,49 +98,6 @@ def _emit(coords, ring_offsets, st, p, out, pos):
     return w
 
 
-@kernel(I64(I64_2D, I64_2D, I64, I64, B1, I64_2D_OUT, B1))
-def _candidates(term, cells, cell, gap2, allow_reverse, out, fill):
-    """Count (or, with ``fill``, write) the possible stitches between termini.
-
-    ``term`` rows: (polyline, end, x, y); ``cells`` = (cell key, terminus) sorted.
-    A stitch is (end of P0 -> start of P1) for any P0, P1 (P0 == P1 closes it),
-    and with ``allow_reverse`` (end, end) and (start, start) with P0 < P1; its
-    squared gap must be ``< gap2``. Rows of ``out``: gap², reversed, t0, t1 with
-    ``t = 2 * polyline + end``.
-    """
-    n = term.shape[0]
-    keys = np.ascontiguousarray(cells[:, 0])
-    m = 0
-    for q in range(n):
-        qx = term[q, 2]
-        qy = term[q, 3]
-        cx = qx // cell + _CELL_OFF
-        cy = qy // cell + _CELL_OFF
-        for dx in range(-1, 2):
-            row = (cx + dx) * _CELL_MUL
-            lo = np.searchsorted(keys, row + cy - 1, side="left")
-            hi = np.searchsorted(keys, row + cy + 1, side="right")
-            for k in range(lo, hi):
-                r = cells[k, 1]
-                ddx = term[r, 2] - qx
-                ddy = term[r, 3] - qy
-                d2 = ddx * ddx + ddy * ddy
-                if d2 >= gap2:
-                    continue
-                in_order = term[q, 1] == 1 and term[r, 1] == 0
-                rev = (allow_reverse and term[q, 1] == term[r, 1]
-                       and term[q, 0] < term[r, 0])
-                if not (in_order or rev):
-                    continue
-                if fill:
-                    out[m, 0] = d2
-                    out[m, 1] = 0 if in_order else 1
-                    out[m, 2] = 2 * term[q, 0] + term[q, 1]
-                    out[m, 3] = 2 * term[r, 0] + term[r, 1]
-                m += 1
-    return m
-
-
 @kernel(I64_1D_OUT(I64_2D_OUT))
 def _stitch_order(cand):
     """Order of the stitches by (gap², reversed, t0, t1) ascending (stable passes)."""
@@ -182,29 +138,42 @@ def _connect_round(coords, ring_offsets, st, c0, c1, max_dist, cell, allow_rever
         return n_closed
     gap2 = max_dist * max_dist
     term = np.empty((n_term, 4), dtype=np.int64)
-    cells = np.empty((n_term, 2), dtype=np.int64)
     i = 0
     for p in range(c0, c1):
         if st[p, 2] == 0:
             continue
         for end in range(2):
             v = _end_row(ring_offsets, st, p, end)
-            x = coords[v, 0]
-            y = coords[v, 1]
             term[i, 0] = p - c0
             term[i, 1] = end
-            term[i, 2] = x
-            term[i, 3] = y
-            cells[i, 0] = (x // cell + _CELL_OFF) * _CELL_MUL + y // cell + _CELL_OFF
-            cells[i, 1] = i
+            term[i, 2] = coords[v, 0]
+            term[i, 3] = coords[v, 1]
             i += 1
-    cells = cells[np.argsort(cells[:, 0], kind="mergesort")]
-    m = _candidates(term, cells, cell, gap2, allow_reverse,
-                    np.empty((0, 4), dtype=np.int64), False)
+    # The stitches taken (both termini still valid, by ascending key) are the
+    # greedy matching of the termini: each one consumes exactly its two termini.
+    # Per terminus the key orders its partners by (gap², reversed, polyline),
+    # as match_ends does (polyline = group id, end = role), so only the pairs
+    # taken are found, in O(n log n) however the ends crowd, then sorted.
+    pairs = match_ends(np.ascontiguousarray(term[:, 2:4]),
+                       np.ascontiguousarray(term[:, 0]),
+                       np.ascontiguousarray(term[:, 1]), gap2, allow_reverse)
+    m = pairs.shape[0]
     if m == 0:
         return n_closed
     cand = np.empty((m, 4), dtype=np.int64)
-    _candidates(term, cells, cell, gap2, allow_reverse, cand, True)
+    for k in range(m):
+        a, b = pairs[k, 0], pairs[k, 1]
+        # as CuraEngine lists it: an end then a start, or the lower polyline first
+        if (term[a, 1] == 0 and term[b, 1] == 1) or (
+            term[a, 1] == term[b, 1] and term[a, 0] > term[b, 0]
+        ):
+            a, b = b, a
+        dx = term[b, 2] - term[a, 2]
+        dy = term[b, 3] - term[a, 3]
+        cand[k, 0] = dx * dx + dy * dy
+        cand[k, 1] = 0 if term[a, 1] != term[b, 1] else 1
+        cand[k, 2] = 2 * term[a, 0] + term[a, 1]
+        cand[k, 3] = 2 * term[b, 0] + term[b, 1]
     n_local = 2 * (c1 - c0)
     old_to_cur = np.arange(n_local)
     cur_to_old = np.arange(n_local)
@@ -214,8 +183,8 @@ def _connect_round(coords, ring_offsets, st, c0, c1, max_dist, cell, allow_rever
     for k in _stitch_order(cand):
         t0 = old_to_cur[cand[k, 2]]
         t1 = old_to_cur[cand[k, 3]]
-        if t0 == _INVALID or t1 == _INVALID:
-            continue
+        if t0 == _INVALID or t1 == _INVALID:  # cannot happen: a matching
+            raise RuntimeError("connect_open_polylines: a matched terminus is gone")
         p0 = t0 >> 1
         p1 = t1 >> 1
         counts[1] += 1
@@ -299,6 +268,12 @@ def connect_open_polylines(coords, ring_offsets, layer_offsets, rounds):
     open_coords, open_ring_offsets, open_layer_offsets, stitched)``: per layer the
     closed polygons in the order they closed, then the polylines still open, by
     index; ``stitched[k]`` counts the joins and closures of layer ``k``.
+
+    CuraEngine's grid ``cell`` only pre-filters its candidates, so the result
+    does not depend on it (it is not used). Cost: O(n log n) per call for n
+    polylines, however their ends crowd: the stitches taken are the greedy
+    matching of the termini (:func:`.chain_ends.match_ends`), so the other
+    candidates are never listed.
 
     Preconditions: |coords| < 2**30; offsets valid; ``0 <= max_dist <= 2**31``,
     ``cell >= 1``.

@@ -139,3 +139,39 @@ def stitch(coords, ring_offsets, layer_offsets, gap_in_order: int, gap_any: int)
         ]
         out.append(stitch_layer(chains, gap_in_order, gap_any))
     return out
+
+
+def match_ends(xy, gid, role, gap2: int, allow_reverse: bool) -> set[frozenset[int]]:
+    """Greedy matching of chain ends (``kernels/chain_ends.py``), by brute force.
+
+    Lists every joinable pair of termini with the stitcher's key ``(d2, reversed,
+    i, j, sub)`` (in order: the end's gid, then the start's; reversed: lower gid
+    first, ``sub`` = their role), sorts the keys and takes a pair when both its
+    termini are still free. Returns the pairs taken as sets of two terminus indices.
+    """
+    n = len(xy)
+    cands = []
+    for q in range(n):
+        for p in range(q + 1, n):
+            d2 = int(xy[q][0] - xy[p][0]) ** 2 + int(xy[q][1] - xy[p][1]) ** 2
+            if d2 >= gap2:
+                continue
+            if role[q] != role[p]:
+                end, start = (q, p) if role[q] == 1 else (p, q)
+                key = (d2, 0, int(gid[end]), int(gid[start]), 0)
+            elif allow_reverse:
+                lo, hi = sorted((int(gid[q]), int(gid[p])))
+                key = (d2, 1, lo, hi, int(role[q]))
+            else:
+                continue
+            cands.append((key, q, p))
+    keys = [c[0] for c in cands]
+    assert len(set(keys)) == len(keys), "keys are distinct"
+    cands.sort()
+    free = [True] * n
+    taken = set()
+    for _, q, p in cands:
+        if free[q] and free[p]:
+            free[q] = free[p] = False
+            taken.add(frozenset((q, p)))
+    return taken

@@ -298,7 +298,7 @@ def load_mesh_cura(source: Any, scale: float) -> Any:
     """
     import trimesh
 
-    from vecslice.mesh import _scene_arrays
+    from vecslice.meshfile import _scene_arrays
 
     if isinstance(source, trimesh.Trimesh):
         name = "trimesh.Trimesh"

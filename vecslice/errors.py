@@ -13,6 +13,7 @@ __all__ = [
     "InputValueError",
     "LayoutError",
     "MeshFileError",
+    "MissingDependencyError",
     "SettingsError",
     "StorageFileError",
     "VecsliceError",
@@ -50,6 +51,10 @@ class MeshFileError(VecsliceError, OSError):
 
 class StorageFileError(VecsliceError, OSError):
     """A file is not a saved vecslice model."""
+
+
+class MissingDependencyError(VecsliceError, ModuleNotFoundError):
+    """An optional dependency is not installed; the message names the extra."""
 
 
 class VecsliceWarning(UserWarning):

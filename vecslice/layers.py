@@ -10,6 +10,7 @@ from numpy.typing import NDArray
 from vecslice._validate import check_int, check_layer_count
 from vecslice.adaptive import adaptive_layer_heights
 from vecslice.errors import InputTypeError
+from vecslice.mesh import Mesh
 from vecslice.settings import SliceSettings
 
 __all__ = ["layer_count", "layer_heights", "layer_schedule"]
@@ -165,13 +166,14 @@ def layer_heights(
             "`settings` must be a vecslice.SliceSettings; "
             f"got {type(settings).__name__}"
         )
-    verts = getattr(mesh, "vertices", None)
-    if not isinstance(verts, np.ndarray) or verts.ndim != 2 or verts.shape[1] != 3:
+    if not isinstance(mesh, Mesh):  # a trimesh.Trimesh would be read as µm
         raise InputTypeError(
-            f"`mesh` must be a vecslice.Mesh; got {type(mesh).__name__}"
+            f"`mesh` must be a vecslice.Mesh (see vecslice.load_mesh); got "
+            f"{type(mesh).__name__}"
         )
     if settings.adaptive_layers:
         return adaptive_layer_heights(mesh, settings)
+    verts = mesh.vertices
     zmin = int(verts[:, 2].min())
     zmax = int(verts[:, 2].max())
     z, print_z, thickness = layer_schedule(zmax - zmin, settings)

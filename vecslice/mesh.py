@@ -1,27 +1,25 @@
 """Triangle meshes in int64 µm: :class:`Mesh` and :func:`load_mesh`.
 
-This is the only vecslice module that imports trimesh. Files are read by trimesh
-without processing (``process=False``); vecslice converts the vertices to µm once,
-then does its own exact merging, cleaning and orientation repair on integers.
+Files are read by :mod:`vecslice.meshfile` to float vertices and faces; vecslice
+converts the vertices to µm once, then does its own exact merging, cleaning and
+orientation repair on integers. trimesh is imported only where a trimesh object
+is made (:meth:`Mesh.to_trimesh`) or read.
 """
 
 from __future__ import annotations
 
 import numbers
 import os
-import struct
-import zipfile
-import zlib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import trimesh
 from numpy.typing import ArrayLike, NDArray
 
 from vecslice._validate import (
     as_int_array,
+    check_bool,
     check_coord_range,
     check_int,
     check_option,
@@ -38,30 +36,13 @@ from vecslice.meshcheck import (
     orient_faces,
     shells,
 )
-from vecslice.units import to_microns
+from vecslice.meshfile import read_mesh_file, trimesh_arrays
+from vecslice.units import COORD_LIMIT, to_microns
+
+if TYPE_CHECKING:
+    import trimesh
 
 __all__ = ["LoadInfo", "Mesh", "MeshReport", "check_mesh", "load_mesh"]
-
-SUPPORTED_EXTENSIONS = ("3mf", "obj", "off", "ply", "stl")
-"""File types :func:`load_mesh` reads (case-insensitive suffixes)."""
-
-# What trimesh's readers raise on damaged input (found by truncating and corrupting
-# STL/OBJ/PLY/3MF files): parse errors are ValueError (UnicodeDecodeError is one),
-# lxml's XMLSyntaxError is a SyntaxError, a 3MF without a model raises StopIteration.
-_READ_ERRORS: tuple[type[BaseException], ...] = (
-    ValueError,
-    KeyError,
-    IndexError,
-    StopIteration,
-    SyntaxError,
-    EOFError,
-    NotImplementedError,
-    OSError,
-    struct.error,
-    zipfile.BadZipFile,
-    zlib.error,
-)
-
 
 def _freeze(a: NDArray[np.int64]) -> NDArray[np.int64]:
     """``a`` immutable (no copy): one rule for every container, see ragged.freeze."""
@@ -221,7 +202,7 @@ class Mesh:
         merge : bool, default True
             Merge vertices with exactly equal positions (first occurrence kept,
             order kept), then drop faces with two equal corners and vertices no
-            face uses. ``False`` stores the arrays as given.
+            face uses. ``False`` stores the arrays as given. Must be a bool.
         load_info : LoadInfo, optional
             Counts from an earlier stage to add to (used by :func:`load_mesh`).
 
@@ -232,7 +213,8 @@ class Mesh:
         Raises
         ------
         InputTypeError
-            If an array is not integer (float vertices get a hint).
+            If an array is not integer (float vertices get a hint), or ``merge``
+            is not a bool.
         InputValueError
             On a wrong shape, a coordinate beyond 2**30 µm, a face index out of
             range, no faces, or only degenerate faces.
@@ -250,6 +232,7 @@ class Mesh:
         >>> m.faces.tolist(), m.load_info.vertices_merged, m.load_info.faces_degenerate
         ([[0, 1, 2], [0, 1, 2]], 1, 1)
         """
+        check_bool(merge, "merge")
         v = _as_vertices(vertices_um)
         f = _as_faces(faces, v.shape[0])
         base = load_info if load_info is not None else LoadInfo(
@@ -339,7 +322,7 @@ class Mesh:
         return out
 
     def repaired(self) -> Mesh:
-        """Remove duplicate faces and orient every shell consistently and outward.
+        """Remove duplicate faces; orient every shell consistently and the right way.
 
         1. **Duplicate faces**: faces with the same three vertices are grouped and
            their windings summed (+1 / -1). A non-zero sum keeps one face with the
@@ -349,13 +332,21 @@ class Mesh:
         2. **Winding**: faces joined across edges used by exactly two faces form a
            shell; each orientable shell is made consistent (neighbours traverse
            their shared edge in opposite directions).
-        3. **Outward**: a closed shell (its edge uses cancel) with negative signed
-           volume is reversed; an open shell keeps the orientation most of its
-           faces had. Non-orientable shells are left as they are.
+        3. **Facing**: each outermost closed shell (its edge uses cancel, and no
+           other closed shell contains it — decided by exact ray parity of its
+           vertices; shells that cross each other are not nested) faces outward
+           (positive signed volume), and the closed shells nested in it are turned
+           with it: a nested shell keeps its winding relative to the shell around
+           it. Wound opposite to it, it is a cavity (the void of a hollow part
+           stays a void); wound the same way, it is a body overlapping it (merged
+           by the NonZero union); an inside-out part is turned over as a whole.
+           An open shell keeps the orientation most of its faces had.
+           Non-orientable shells are left as they are.
 
         Vertices no face uses any more are dropped. Non-manifold edges, holes and
         self-intersections are not changed (:func:`check_mesh` reports them). The
-        result's ``load_info`` counts removed and flipped faces.
+        result's ``load_info`` adds up removed and flipped faces and reversed
+        shells, and gives the number of cavities (inward closed shells).
 
         Returns
         -------
@@ -373,6 +364,9 @@ class Mesh:
         ...     [[0, 1, 2], [0, 3, 1], [1, 3, 2], [0, 2, 3]])
         >>> inside_out.volume, inside_out.repaired().volume
         (-36.0, 36.0)
+        >>> li = inside_out.repaired().load_info
+        >>> li.faces_flipped, li.shells_reversed, li.cavities_kept
+        (4, 1, 0)
         """
         f = self.faces
         keep = dedupe_faces(f)
@@ -382,8 +376,8 @@ class Mesh:
                 "`mesh` has no faces left after repair: every face cancels "
                 "against a reversed copy of itself"
             )
-        flip = orient_faces(self.vertices, f)
-        f = np.where(flip[:, None], f[:, [0, 2, 1]], f)
+        turn = orient_faces(self.vertices, f)
+        f = np.where(turn.flip[:, None], f[:, [0, 2, 1]], f)
         v, f, _, n_unused, _ = clean_arrays(self.vertices, f, merge=False)
         info = self.load_info if self.load_info is not None else LoadInfo(
             "arrays", self.n_faces, self.n_vertices)
@@ -391,12 +385,16 @@ class Mesh:
             info,
             vertices_unused=info.vertices_unused + n_unused,
             faces_duplicate=info.faces_duplicate + int((~keep).sum()),
-            faces_flipped=info.faces_flipped + int(flip.sum()),
+            faces_flipped=info.faces_flipped + int(turn.flip.sum()),
+            shells_reversed=info.shells_reversed + turn.shells_reversed,
+            cavities_kept=turn.cavities,
         )
         return Mesh._trusted(v, f, info)
 
     def to_trimesh(self) -> trimesh.Trimesh:
         """A ``trimesh.Trimesh`` in float64 millimetres (not processed)."""
+        import trimesh
+
         return trimesh.Trimesh(vertices=self.vertices / 1000.0,
                                faces=self.faces.copy(), process=False)
 
@@ -470,82 +468,29 @@ def _check_scale(scale: object) -> float:
     return s
 
 
-def _stl_hint(path: Path, size: int) -> str:
-    """Why an STL file gave no triangles, guessed from its first bytes."""
-    with open(path, "rb") as fh:
-        head = np.frombuffer(fh.read(512), dtype=np.uint8)
-    if (((head >= 32) & (head < 127)) | np.isin(head, (9, 10, 13))).all():
-        return " (ASCII STL without a complete 'solid ... endsolid' block: truncated?)"
-    if size < 84:
-        return f" (binary STL needs an 84-byte header; the file has {size} bytes)"
-    n = int(head[80:84].view("<u4")[0])
-    want = 84 + 50 * n
-    return (f" (binary STL header announces {n} triangles = {want} bytes; the file "
-            f"has {size} bytes: truncated or corrupt)")
-
-
-def _scene_arrays(scene: trimesh.Scene) -> tuple[NDArray[np.float64], NDArray[Any]]:
-    """Vertices and faces of every Trimesh instance of ``scene``, transforms applied."""
-    verts: list[NDArray[np.float64]] = []
-    faces: list[NDArray[Any]] = []
-    base = 0
-    for node in scene.graph.nodes_geometry:  # one per placed instance, not per face
-        transform, name = scene.graph[node]
-        geom = scene.geometry.get(name)
-        if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
-            continue
-        v = np.asarray(geom.vertices, dtype=np.float64)
-        t = np.asarray(transform, dtype=np.float64)
-        v = v @ t[:3, :3].T + t[:3, 3]
-        f = np.asarray(geom.faces, dtype=np.int64)
-        if np.linalg.det(t[:3, :3]) < 0:  # a mirror turns the winding inside out
-            f = f[:, ::-1]
-        verts.append(v)
-        faces.append(f + base)
-        base += v.shape[0]
-    if not faces:
-        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
-    return np.concatenate(verts), np.concatenate(faces)
-
-
-def _read_file(path: Path) -> tuple[NDArray[np.float64], NDArray[Any]]:
-    if not path.exists():
-        raise MeshFileError(f"mesh file not found: '{path}'")
-    if path.is_dir():
-        raise MeshFileError(f"'{path}' is a directory, not a mesh file")
-    ext = path.suffix.lower().lstrip(".")
-    if ext not in SUPPORTED_EXTENSIONS:
-        raise MeshFileError(
-            f"'{path}': unsupported mesh file type '{path.suffix}'; expected one of "
-            + ", ".join("." + e for e in SUPPORTED_EXTENSIONS)
-        )
-    size = path.stat().st_size
-    if size == 0:
-        raise MeshFileError(f"'{path}' is empty (0 bytes)")
-    try:
-        loaded = trimesh.load(str(path), file_type=ext, process=False)
-    except _READ_ERRORS as exc:
-        raise MeshFileError(
-            f"cannot read '{path}' as {ext.upper()}: {type(exc).__name__}: {exc}"
-        ) from exc
-    if isinstance(loaded, trimesh.Scene):
-        v, f = _scene_arrays(loaded)
-    elif isinstance(loaded, trimesh.Trimesh):
-        v, f = np.asarray(loaded.vertices), np.asarray(loaded.faces)
-    else:
-        v, f = np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
-    if f.shape[0] == 0:
-        hint = _stl_hint(path, size) if ext == "stl" else ""
-        raise MeshFileError(f"'{path}' holds no triangles{hint}")
-    flat = f.reshape(-1)
-    bad = np.flatnonzero((flat < 0) | (flat >= v.shape[0]))
+def _check_coords(v: NDArray[np.float64], s: float, source: str) -> NDArray[np.float64]:
+    """``v * s`` in mm after checking finiteness and the 2**30 µm range per vertex."""
+    bad = np.flatnonzero(~np.isfinite(v).all(axis=1))
     if bad.size:
         i = int(bad[0])
-        raise MeshFileError(
-            f"'{path}' is corrupt: face {i // 3} refers to vertex {flat[i]}, but "
-            f"the file has {v.shape[0]} vertices"
+        raise InputValueError(
+            f"`vertices` must be finite; got {[float(x) for x in v[i]]} at vertex "
+            f"{i} of {source}"
         )
-    return v, f
+    with np.errstate(over="ignore"):
+        mm = v * s if s != 1.0 else v
+        # |round half away from zero| = trunc(|x| + 0.5), as in to_microns
+        big = np.flatnonzero((np.trunc(np.abs(mm) * 1000.0 + 0.5) >= COORD_LIMIT)
+                             .any(axis=1))
+    if big.size:
+        i = int(big[0])
+        at = ", ".join(f"{float(x):g}" for x in v[i])
+        scaled = f" x scale {s:g}" if s != 1.0 else ""
+        raise InputValueError(
+            f"`vertices` must be below {COORD_LIMIT / 1000:g} mm in magnitude "
+            f"(2**30 µm); got ({at}){scaled} mm at vertex {i} of {source}"
+        )
+    return mm
 
 
 def load_mesh(
@@ -561,13 +506,17 @@ def load_mesh(
     ----------
     path_or_trimesh : str, path-like, trimesh.Trimesh or trimesh.Scene
         An STL (binary or ASCII), OBJ, PLY, OFF or 3MF file, or a trimesh object.
-        3MF build items and components, and every scene node, are placed with
-        their transforms and concatenated.
+        Every 3MF build item and component placement, and every scene node, is
+        placed with its transform and concatenated.
     scale : float, default 1.0
-        File units to millimetres (25.4 for inches, 1000 for metres).
+        File units to millimetres (25.4 for inches, 1000 for metres). A 3MF
+        file's own ``unit`` is applied first, so leave it at 1 for 3MF.
     repair : bool, default True
-        Remove duplicate faces and orient every shell consistently and outward
-        (see :meth:`Mesh.repaired`). Ignored with ``compat="cura"``.
+        Remove duplicate faces and orient every shell consistently: each part
+        outward, the shells nested in it turned with it, so cavities (wound
+        opposite to the shell around them) stay cavities (see
+        :meth:`Mesh.repaired`). ``False`` keeps the file's windings.
+        Ignored with ``compat="cura"``.
     compat : {'vecslice', 'cura'}, default 'vecslice'
         ``'cura'`` reads the mesh as CuraEngine does (STL only, or a trimesh
         object): float32 values, ``MM2INT``, 30 µm melding through CuraEngine's hash
@@ -585,15 +534,27 @@ def load_mesh(
     Raises
     ------
     MeshFileError
-        (an ``OSError``) for a missing file, a directory, an unsupported suffix, an
-        empty, unreadable, truncated or corrupt file, or one without triangles.
+        (an ``OSError``) for a missing file, a symbolic link loop, a directory, an
+        unsupported suffix, an empty, unreadable, truncated, corrupt or
+        oversized file, one without triangles, or one whose faces all collapse
+        at ``scale``.
     InputTypeError
-        If ``path_or_trimesh`` or ``scale`` has the wrong type.
+        If ``path_or_trimesh``, ``scale``, or ``repair`` has the wrong type.
     InputValueError
         If ``scale`` is not positive and finite, a vertex is NaN or infinite, or a
         coordinate reaches 2**30 µm.
     SettingsError
         If ``compat`` is not 'vecslice' or 'cura'.
+
+    Notes
+    -----
+    Limits refuse hostile files before they cost memory: at most
+    :data:`vecslice.meshfile.MAX_TRIANGLES` triangles (100 million; also for
+    counts a header announces, and for 3MF after expanding components); for
+    3MF at most :data:`vecslice.threemf.MAX_MODEL_BYTES` (1 GiB) of model XML,
+    inflated no more than :data:`vecslice.threemf.MAX_COMPRESSION_RATIO` (200)
+    times, and at most :data:`vecslice.threemf.MAX_INSTANCES` (a million)
+    object placements.
 
     Examples
     --------
@@ -605,42 +566,39 @@ def load_mesh(
     [[0, 1, 2], [3, 0, 2]]
     """
     s = _check_scale(scale)
+    check_bool(repair, "repair")
     if check_option(compat, ("vecslice", "cura"), "compat") == "cura":
         from vecslice.cura_stl import load_mesh_cura
 
         return load_mesh_cura(path_or_trimesh, s)  # type: ignore[no-any-return]
     if isinstance(path_or_trimesh, (str, os.PathLike)):
-        path = Path(path_or_trimesh)
-        source = str(path)
-        v, f = _read_file(path)
-    elif isinstance(path_or_trimesh, trimesh.Trimesh):
-        source = "trimesh.Trimesh"
-        v = np.asarray(path_or_trimesh.vertices, dtype=np.float64)
-        f = np.asarray(path_or_trimesh.faces)
-    elif isinstance(path_or_trimesh, trimesh.Scene):
-        source = "trimesh.Scene"
-        v, f = _scene_arrays(path_or_trimesh)
+        try:
+            path = Path(path_or_trimesh)
+        except TypeError as exc:  # a PathLike giving bytes
+            raise InputTypeError(
+                f"`path_or_trimesh` must be a file path (str); got {exc}") from None
+        source = f"'{path}'"
+        v, f = read_mesh_file(path)
+    elif (arrays := trimesh_arrays(path_or_trimesh)) is not None:
+        v, f, source = arrays
+        if f.shape[0] == 0:
+            raise InputValueError(f"`path_or_trimesh` ({source}) holds no triangles")
     else:
         raise InputTypeError(
             "`path_or_trimesh` must be a file path, trimesh.Trimesh or "
             f"trimesh.Scene; got {type(path_or_trimesh).__name__}"
         )
-    if f.shape[0] == 0 and source.startswith("trimesh"):
-        raise InputValueError(f"`path_or_trimesh` ({source}) holds no triangles")
-    v = np.asarray(v, dtype=np.float64)
-    bad = np.flatnonzero(~np.isfinite(v).all(axis=1))
-    if bad.size:
-        i = int(bad[0])
-        raise InputValueError(
-            f"`vertices` must be finite; got {v[i].tolist()} at vertex {i} "
-            f"of {source}"
-        )
-    um = to_microns(v * s if s != 1.0 else v, name="vertices")
-    info = LoadInfo(source, int(f.shape[0]), int(v.shape[0]))
+    um = to_microns(_check_coords(np.asarray(v, dtype=np.float64), s, source),
+                    name="vertices")
+    info = LoadInfo(source.strip("'"), int(f.shape[0]), int(v.shape[0]))
     try:
         mesh = Mesh.from_arrays(um, f, load_info=info)
     except InputValueError as exc:
+        hint = ""
+        if "non-degenerate" in str(exc):
+            hint = (f" at scale {s:g} (file units to mm): is the scale right? "
+                    "(inches: 25.4, metres: 1000)")
         if source.startswith("trimesh"):
-            raise
-        raise MeshFileError(f"'{source}': {exc}") from exc
+            raise InputValueError(f"{exc}{hint}") from exc
+        raise MeshFileError(f"{source}: {exc}{hint}") from exc
     return mesh.repaired() if repair else mesh

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice._kernels.vertices import clean_mesh
+from vecslice.nesting import outermost_container
 
 __all__ = ["LoadInfo", "MeshReport", "build_report", "clean_arrays"]
 
@@ -40,7 +41,15 @@ class LoadInfo:
         Faces removed by repair: copies of a face with the same three vertices (see
         :meth:`vecslice.Mesh.repaired`).
     faces_flipped : int
-        Faces whose winding repair reversed.
+        Faces whose winding repair reversed (to make shells consistent, and
+        whole closed shells turned to face the right way).
+    shells_reversed : int
+        Closed shells repair turned over as a whole (most of their faces
+        reversed): inside-out parts, with the shells nested in them.
+    cavities_kept : int
+        Closed shells facing inward after the last repair: shells inside another
+        closed shell and wound opposite to it, such as the void of a hollow
+        ball, kept empty.
     """
 
     source: str = "arrays"
@@ -51,6 +60,8 @@ class LoadInfo:
     faces_degenerate: int = 0
     faces_duplicate: int = 0
     faces_flipped: int = 0
+    shells_reversed: int = 0
+    cavities_kept: int = 0
 
 
 class _Edges(NamedTuple):
@@ -199,24 +210,35 @@ def face_volumes(
     return np.einsum("ij,ij->i", p0, np.cross(p1, p2)) / 6.0
 
 
+class Orientation(NamedTuple):
+    """What :func:`orient_faces` decided."""
+
+    flip: NDArray[np.bool_]  # (F,) faces to reverse
+    shells_reversed: int  # closed shells with most of their faces reversed
+    cavities: int  # closed shells facing inward after the repair
+
+
 def orient_faces(
     vertices: NDArray[np.int64], faces: NDArray[np.int64]
-) -> NDArray[np.bool_]:
-    """Which faces to reverse so each shell is consistently wound and outward.
+) -> Orientation:
+    """Which faces to reverse so each shell is consistently wound and faces right.
 
     Faces are joined across edges used by exactly two faces. Each face gets two
     nodes (as is, reversed); a joining edge links the pair of states in which the
     two faces traverse it in opposite directions. The components of this doubled
     graph split every orientable shell into two opposite classes, so one flip mask
-    orients all shells at once. Then each *closed* shell (every edge traversed
-    equally often in both directions) is reversed if its signed volume is negative,
-    and each open shell keeps whichever orientation the majority of its faces had.
-    Non-orientable shells are left as they are.
+    orients all shells at once.
 
-    Returns
-    -------
-    ndarray of shape (F,), bool
-        ``True`` for faces to reverse.
+    Each shell first takes the orientation the majority of its faces had. Then
+    each outermost *closed* shell (every edge traversed equally often in both
+    directions, inside no other closed shell; see
+    :func:`vecslice.nesting.outermost_container`) faces outward (positive signed
+    volume), and every closed shell nested in it is turned with it: a nested shell
+    keeps its winding relative to the shells around it. So the void of a hollow
+    part (wound opposite to the part) stays a void, a body inside another wound
+    the same way stays a body (the NonZero union merges it), and an inside-out
+    part is turned over as a whole. Open shells keep their majority orientation.
+    Non-orientable shells are left as they are.
     """
     n = faces.shape[0]
     e = _edges(faces, vertices.shape[0])
@@ -243,8 +265,21 @@ def orient_faces(
                       minlength=n_shells)
     size = np.bincount(shell, minlength=n_shells)
     n_flip = np.bincount(shell, weights=flip, minlength=n_shells)
-    invert = np.where(is_open, 2 * n_flip > size, vol < 0)
-    return (flip ^ invert[shell]) & orientable
+    whole = np.bincount(shell, weights=orientable, minlength=n_shells) == size
+    closed = ~is_open & whole
+    # each shell as the majority of its faces had it, then every nesting tree of
+    # closed shells turned outward as a whole (by its outermost shell)
+    majority = 2 * n_flip > size
+    vol_as_written = np.where(majority, -vol, vol)
+    root = outermost_container(vertices, faces, shell, closed)
+    invert = majority ^ (closed & (vol_as_written[root] < 0))
+    final = (flip ^ invert[shell]) & orientable
+    # turned over as a whole: most of the closed shell's faces end up reversed
+    n_final = np.bincount(shell, weights=final, minlength=n_shells)
+    vol_final = np.bincount(shell, weights=face_volumes(vertices, faces)
+                            * np.where(final, -1.0, 1.0), minlength=n_shells)
+    return Orientation(final, int((closed & (2 * n_final > size)).sum()),
+                       int((closed & (vol_final < 0)).sum()))
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -345,6 +380,8 @@ class MeshReport:
                 f"degenerate dropped  {li.faces_degenerate:,}",
                 f"duplicates removed  {li.faces_duplicate:,}",
                 f"faces flipped       {li.faces_flipped:,}",
+                f"shells reversed     {li.shells_reversed:,}",
+                f"cavities kept       {li.cavities_kept:,}",
             ]
         return "\n".join(lines)
 

@@ -37,9 +37,14 @@ T = TypeVar("T")
 
 @dataclass
 class StageTimes:
-    """Wall-clock seconds spent in each stage of the last :func:`slice_mesh` call."""
+    """Wall-clock seconds spent in each stage of the last :func:`slice_mesh` call.
+
+    ``counts`` holds sizes seen on the way: ``raw_vertices``, the vertices of the
+    raw loops and open chains after stitching, before simplification.
+    """
 
     seconds: dict[str, float] = field(default_factory=dict)
+    counts: dict[str, int] = field(default_factory=dict)
 
     def __str__(self) -> str:
         total = sum(self.seconds.values())
@@ -260,6 +265,8 @@ def slice_mesh(
                      max_layers=settings.max_layers)
         raw, stitched = st.run("stitch", stitch, raw)
         open_chains = raw.open.rings_per_layer() if raw.open is not None else None
+        st.times.counts["raw_vertices"] = int(raw.coords.shape[0]) + (
+            int(raw.open.coords.shape[0]) if raw.open is not None else 0)
         loops = st.run("simplify", clean_loops, raw, settings)
         del raw  # memory per layer: the raw loops are not needed any more
         loops = st.run("tolerance", apply_slicing_tolerance, loops,
@@ -273,4 +280,5 @@ def slice_mesh(
         st.close()
     if times is not None:
         times.seconds.update(st.times.seconds)
+        times.counts.update(st.times.counts)
     return model

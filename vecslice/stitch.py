@@ -103,9 +103,15 @@ def stitch(
     keeps both; its simplification removes them later). Loops may have fewer than
     3 vertices; the perimeter filter and simplification drop them. New loops and
     open chains are ordered by id and start at the head of the joined chain.
-    Empty chains are dropped. Cost: O(V log V + m log m) for V vertices and m
-    candidate pairs (chain ends closer than the gap); m is usually about the
-    number of chains, O(n**2) only if n ends crowd within one gap.
+    Empty chains are dropped.
+
+    Cost: O(V + n log n) time and O(V) memory for V vertices and n chains, also
+    when thousands of chain ends crowd within one gap (a triangle soup) or
+    coincide. The candidate pairs are never listed: the joins a round makes are
+    the greedy matching of the chain ends by the order above, found with a k-d
+    tree of the ends and mutual nearest partners. All candidate keys are
+    distinct, so the result, ties included, is exactly that of listing every
+    candidate pair and taking them in order.
 
     Examples
     --------
@@ -126,6 +132,9 @@ def stitch(
     gap1 = min(check_int(max_gap_in_order, "max_gap_in_order", minimum=0), _GAP_CLAMP)
     gap2 = min(check_int(max_gap, "max_gap", minimum=0), _GAP_CLAMP)
     chains = lp.open if lp.open is not None else LayerPaths.empty(lp.n_layers)
+    if chains.n_rings == 0:  # nothing to join (and no kernel to compile on a first run)
+        out = LayerPaths._trusted(lp.coords, lp.ring_offsets, lp.layer_offsets, chains)
+        return Stitched(out, np.zeros(lp.n_layers, dtype=np.int64))
     cc, cr, cl, oc, orr, ol, n_stitched = stitch_chains(
         chains.coords, chains.ring_offsets, chains.layer_offsets, gap1, gap2
     )

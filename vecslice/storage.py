@@ -238,6 +238,12 @@ class SlicedModel(PartsLayout):
             return None
         return np.stack([c.min(axis=0), c.max(axis=0)])
 
+    def to_svg(self, i: int, **options: Any) -> str:
+        """Layer ``i`` as SVG text, µm user units, mm size (see :mod:`vecslice.svg`)."""
+        from vecslice.svg import layer_svg
+
+        return layer_svg(self, i, **options)
+
     def save(self, path: str | os.PathLike[str], *, compress: bool = False) -> None:
         """Write the model to ``path`` as an .npz archive (bit-exact).
 

@@ -1,12 +1,18 @@
 """CuraEngine's chain joining (kernels/cura_stitch.py, kernels/cura_polylines.py)."""
 
+import numba
 import numpy as np
-from hypothesis import given
+import pytest
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import reference_cura as ref
 from vecslice._kernels.cura_polylines import stitch_open_polylines
 from vecslice._kernels.cura_stitch import connect_open_polylines
+
+# the large inputs take minutes when kernels run as plain Python (coverage runs)
+needs_jit = pytest.mark.skipif(numba.config.DISABLE_JIT,
+                               reason="NUMBA_DISABLE_JIT=1: too slow as plain Python")
 
 ROUNDS = np.array([[20, 20, 0], [10_000, 10_000, 1]], dtype=np.int64)
 
@@ -136,3 +142,72 @@ def test_joining_near_the_coordinate_limit(chains):
     want_closed, want_open = ref.open_polyline_stitcher(chains, 400, 10)
     assert _unpack(cc, cr, cl) == [want_closed]
     assert _unpack(oc, orr, ol) == [want_open]
+
+
+# ------------------------------------------- crowded ends (issue 8 A3)
+
+def _same_as_quadratic(coords, ro, lo):
+    """Kernel outputs, checked array by array against the pre-issue-8 kernel."""
+    import reference_stitch_cura_quadratic as quadratic
+
+    out = connect_open_polylines(coords, ro, lo, ROUNDS)
+    want = quadratic.connect_open_polylines(coords, ro, lo, ROUNDS)
+    for a, b in zip(out, want, strict=True):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+    return out
+
+
+@settings(max_examples=40)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([1, 3, 30, 3000]))
+def test_crowded_ends_match_reference_and_quadratic_kernel(seed, span):
+    # up to 60 chains with all ends within one gap, on small lattices (ties)
+    rng = np.random.default_rng(seed)
+    layers = []
+    for _ in range(2):
+        chains = []
+        for _ in range(int(rng.integers(0, 60))):
+            c = rng.integers(0, span + 1, (int(rng.integers(1, 5)), 2))
+            chains.append([tuple(map(int, p)) for p in c])
+        layers.append(chains)
+    coords, ro, lo = _pack(layers)
+    cc, cr, cl, oc, orr, ol, _ = _same_as_quadratic(coords, ro, lo)
+    for k, chains in enumerate(layers):
+        polylines = [list(c) for c in chains]
+        want = ref.connect_open_polylines(polylines, 20, False)
+        want += ref.connect_open_polylines(polylines, 10_000, True)
+        assert _unpack(cc, cr, cl)[k] == want
+        assert _unpack(oc, orr, ol)[k] == [p for p in polylines if p]
+
+
+@needs_jit
+def test_thousands_of_ends_within_one_gap_match_quadratic_kernel():
+    # 1,200 random segments in a 5 mm square (2,400 ends, 2.9 M possible
+    # stitches within 10 mm), and 600 on a 3 x 3 lattice
+    rng = np.random.default_rng(3)
+    layers = [
+        [[tuple(map(int, p)) for p in rng.integers(0, 5_000, (2, 2))]
+         for _ in range(1_200)],
+        [[tuple(map(int, p)) for p in rng.integers(0, 3, (2, 2))]
+         for _ in range(600)],
+    ]
+    *_, n = _same_as_quadratic(*_pack(layers))
+    assert n.tolist()[0] > 1_000
+
+
+@needs_jit
+def test_coincident_ends_need_no_candidate_list():
+    # 100,000 one-vertex chains at one point: 10**10 possible stitches, all of
+    # which the old kernel listed (MemoryError). Smallest (gap², t0, t1) first:
+    # each polyline's end meets its own start, in index order.
+    n = 100_000
+    coords = np.zeros((n, 2), dtype=np.int64)
+    ro = np.arange(n + 1, dtype=np.int64)
+    lo = np.array([0, n], dtype=np.int64)
+    cc, cr, cl, oc, orr, ol, cnt = connect_open_polylines(coords, ro, lo, ROUNDS)
+    assert (cc == 0).all() and cr.tolist() == list(range(n + 1))
+    assert cl.tolist() == [0, n] and len(oc) == 0 and cnt.tolist() == [n]
+    small = [[[(0, 0)] for _ in range(5)]]
+    polylines = [list(c) for c in small[0]]
+    assert _unpack(*connect_open_polylines(*_pack(small), ROUNDS)[:3]) == [
+        ref.connect_open_polylines(polylines, 20, False)
+    ]

@@ -1,10 +1,16 @@
+import numba
 import numpy as np
 import pytest
-from hypothesis import given
+import reference_stitch_quadratic
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import reference_stitch
 from vecslice._kernels.stitch import stitch_chains
+
+# the large inputs take minutes when kernels run as plain Python (coverage runs)
+needs_jit = pytest.mark.skipif(numba.config.DISABLE_JIT,
+                               reason="NUMBA_DISABLE_JIT=1: too slow as plain Python")
 
 
 def _pack(layers):
@@ -32,7 +38,8 @@ def _unpack(coords, ring_offsets, layer_offsets):
 def _run(layers, g1=20, g2=10_000):
     """Kernel result as per layer (loops, open, n), checked against the reference."""
     coords, ro, lo = _pack(layers)
-    cc, cr, cl, oc, orr, ol, n = stitch_chains(coords, ro, lo, g1, g2)
+    out = _same_as_quadratic(coords, ro, lo, g1, g2)
+    cc, cr, cl, oc, orr, ol, n = out
     for offs, below in ((cr, len(cc)), (orr, len(oc)), (cl, len(cr) - 1),
                         (ol, len(orr) - 1)):
         assert offs[0] == 0 and offs[-1] == below and (np.diff(offs) >= 0).all()
@@ -40,6 +47,15 @@ def _run(layers, g1=20, g2=10_000):
     got = list(zip(_unpack(cc, cr, cl), _unpack(oc, orr, ol), n.tolist(), strict=True))
     assert got == [tuple(x) for x in reference_stitch.stitch(coords, ro, lo, g1, g2)]
     return got
+
+
+def _same_as_quadratic(coords, ro, lo, g1, g2):
+    """Kernel outputs, checked array by array against the pre-issue-8 kernel."""
+    out = stitch_chains(coords, ro, lo, g1, g2)
+    ref = reference_stitch_quadratic.stitch_chains(coords, ro, lo, g1, g2)
+    for got, want in zip(out, ref, strict=True):
+        assert got.dtype == want.dtype and np.array_equal(got, want)
+    return out
 
 
 def _rotations(ring):
@@ -134,6 +150,87 @@ def test_matches_reference_dense(seed, g):
             for _ in range(n)
         ])
     _run(layers, *g)
+
+
+@st.composite
+def many_layers(draw):
+    """Up to 12 layers, many of them empty, each a random_layers layer."""
+    layers = []
+    for _ in range(draw(st.integers(0, 12))):
+        if draw(st.booleans()):
+            layers.append([])
+        else:
+            layers.extend(draw(random_layers())[:1] or [[]])
+    return layers
+
+
+@given(many_layers(), gaps)
+def test_many_layers_match_references(layers, g):
+    _run(layers, *g)
+
+
+def _crowd(rng, n, span, max_len=4, spread=None):
+    """n chains of 1..max_len vertices with ends in a span x span box (the rest
+    of their vertices within ``spread``), some exact duplicates and reversals."""
+    spread = span if spread is None else spread
+    chains = []
+    for _ in range(n):
+        k = int(rng.integers(1, max_len + 1))
+        c = rng.integers(0, span + 1, (k, 2))
+        if k > 2:
+            c[1:-1] = rng.integers(-spread, spread + 1, (k - 2, 2))
+        chains.append([tuple(map(int, p)) for p in c])
+        if rng.random() < 0.1:
+            chains.append(chains[-1][::-1] if rng.random() < 0.5 else chains[-1])
+    return chains
+
+
+@needs_jit
+@given(st.integers(0, 2**32 - 1), st.sampled_from([1, 3, 30, 1000, 8000]), gaps)
+def test_crowded_layers_match_quadratic_kernel(seed, span, g):
+    # hundreds of chain ends within one gap (ties galore on the small boxes):
+    # the pre-issue-8 kernel is the reference (it is compared with the pure-Python
+    # one above; that one is too slow here)
+    rng = np.random.default_rng(seed)
+    layers = [_crowd(rng, int(rng.integers(0, 300)), span) for _ in range(3)]
+    _same_as_quadratic(*_pack(layers), *g)
+
+
+@settings(max_examples=40)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([1, 3, 30, 3000]), gaps)
+def test_crowded_layers_match_both_references(seed, span, g):
+    # up to 50 chains (100 ends) within one gap: both references, ties included
+    rng = np.random.default_rng(seed)
+    layers = [_crowd(rng, int(rng.integers(0, 50)), span) for _ in range(2)]
+    _run(layers, *g)
+
+
+@needs_jit
+def test_thousands_of_ends_within_one_gap_match_quadratic_kernel():
+    # 3,000 chains (6,000 ends, 18 M candidate pairs within 10 mm) in a 2 mm box,
+    # on a coarse lattice so that equal gaps and coincident ends abound
+    rng = np.random.default_rng(8)
+    layers = [
+        _crowd(rng, 3000, 2000, spread=5000),
+        [[(10 * x, 10 * y) for x, y in c] for c in _crowd(rng, 2000, 40)],
+    ]
+    coords, ro, lo = _pack(layers)
+    *_, n = _same_as_quadratic(coords, ro, lo, 20, 10_000)
+    assert (n > 1000).all()
+
+
+@needs_jit
+def test_coincident_ends_need_no_candidate_list():
+    # issue 8 A3: 100,000 one-vertex chains at one point form 10**10 candidate
+    # pairs; the old kernel listed them all (MemoryError after minutes). Smallest
+    # key first, chain i's end meets chain i's own start: every chain closes.
+    n = 100_000
+    coords = np.zeros((n, 2), dtype=np.int64)
+    ro = np.arange(n + 1, dtype=np.int64)
+    lo = np.array([0, n], dtype=np.int64)
+    cc, cr, cl, oc, orr, ol, cnt = stitch_chains(coords, ro, lo, 20, 10_000)
+    assert (cc == 0).all() and cr.tolist() == list(range(n + 1))
+    assert cl.tolist() == [0, n] and len(oc) == 0 and cnt.tolist() == [n]
 
 
 @given(random_layers(), gaps)

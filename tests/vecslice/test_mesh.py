@@ -188,7 +188,20 @@ def test_3mf_build_items(meshes_dir):
     assert m.zrange == (10025, 35025)  # placed z 10...35 mm
     # the three 4 mm cubes float at z 21...25 mm: 12 faces each, 8 vertices
     same = vs.load_mesh(scene, repair=False)
-    assert np.array_equal(same.vertices, m.vertices)
+    # vecslice reads 3MF itself (in file order, trimesh in its graph's order):
+    # the same triangles, each with the same winding
+    assert np.array_equal(triangle_set(same), triangle_set(m))
+
+
+def triangle_set(mesh):
+    """The mesh's triangles as sorted rows of 9 coordinates, each triangle
+    rotated (winding kept) to start at its lexicographically smallest corner."""
+    t = mesh.vertices[mesh.faces]  # (F, 3, 3)
+    key = (t[:, :, 0] * 2**21 + t[:, :, 1]) * 2**21 + t[:, :, 2]
+    k = np.argmin(key, axis=1)
+    idx = (k[:, None] + np.arange(3)) % 3
+    rolled = np.take_along_axis(t, idx[:, :, None], axis=1).reshape(-1, 9)
+    return rolled[np.lexsort(rolled.T[::-1])]
 
 
 def test_trimesh_and_scene_input():
@@ -458,11 +471,14 @@ FILE_CASES = [
     ("3mf cut xml", "cut.3mf", lambda d: _rezip(d, "cut"), vs.MeshFileError,
      OSError, r"as 3MF: XMLSyntaxError"),
     ("3mf no model", "nomodel.3mf", lambda d: _rezip(d, "drop"), vs.MeshFileError,
-     OSError, r"as 3MF: StopIteration"),
+     OSError, r"nomodel\.3mf': 3MF holds no 3D model: _rels/\.rels names "
+     r"'/3D/3dmodel\.model', which the package does not contain"),
     ("garbage ply", "garbage.ply", lambda d: b"\x13\x37" * 100, vs.MeshFileError,
-     OSError, r"cannot read .* as PLY: ValueError"),
+     OSError, r"garbage\.ply' is not a PLY file"),
     ("truncated ply", "trunc.ply", lambda d: _shared(d, "bun_zipper_res2.ply", 3000),
-     vs.MeshFileError, OSError, r"cannot read .* as PLY"),
+     vs.MeshFileError, OSError, r"trunc\.ply' is truncated or corrupt: its PLY header "
+     r"announces 8,171 'vertex' and 16,301 'face' elements \(at least 114,312 "
+     r"bytes\), but 2,766 bytes follow"),
     ("points only obj", "points.obj", lambda d: "v 0 0 0\nv 1 0 0\n",
      vs.MeshFileError, OSError, r"holds no triangles"),
     ("bad index ply", "idx.ply", lambda d: (
@@ -472,7 +488,9 @@ FILE_CASES = [
         "0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n"),
      vs.MeshFileError, OSError, r"corrupt: face 0 refers to vertex 7"),
     ("bad index obj", "idx.obj", lambda d: "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n",
-     vs.MeshFileError, OSError, r"cannot read .* as OBJ: IndexError"),
+     vs.MeshFileError, OSError,
+     r"idx\.obj' is corrupt: face 1 \(line 4\) refers to vertex 9; the file has 3 "
+     r"vertices"),
     ("unknown extension", "mesh.foo", lambda d: "solid x\nendsolid x\n",
      vs.MeshFileError, OSError, r"unsupported mesh file type '\.foo'"),
     ("nan obj", "nan.obj", lambda d: "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n",
@@ -525,6 +543,12 @@ BAD_ARGS = [
     ("scale bool", dict(scale=True), vs.InputTypeError, TypeError, r"got bool"),
     ("scale huge", dict(scale=1e9), vs.InputValueError, ValueError,
      r"`vertices` must be below"),
+    ("repair str", dict(repair="no"), vs.InputTypeError, TypeError,
+     r"`repair` must be True or False; got str 'no'"),
+    ("repair int", dict(repair=0), vs.InputTypeError, TypeError,
+     r"`repair` must be True or False; got int 0"),
+    ("repair none", dict(repair=None), vs.InputTypeError, TypeError,
+     r"`repair` must be True or False; got NoneType None"),
 ]
 
 
@@ -535,6 +559,32 @@ def test_load_mesh_rejects_bad_arguments(label, kwargs, err, builtin, match):
     with pytest.raises(err, match=match) as info:
         vs.load_mesh(kwargs.pop("path_or_trimesh"), **kwargs)
     assert isinstance(info.value, builtin) and isinstance(info.value, vs.VecsliceError)
+
+
+def test_boolean_options_must_be_bools():
+    # issue 8 D8: "no" repaired and merged (truthiness)
+    v = [[0, 0, 0], [9, 0, 0], [0, 9, 0], [9, 0, 0]]
+    f = [[0, 1, 2], [0, 3, 2]]
+    for bad in ("no", 0, 1.0, None, [True]):
+        with pytest.raises(vs.InputTypeError, match=r"`merge` must be True or "
+                           r"False; got "):
+            vs.Mesh.from_arrays(v, f, merge=bad)
+    assert vs.Mesh.from_arrays(v, f, merge=np.bool_(False)).n_vertices == 4
+    assert vs.Mesh.from_arrays(v, f, merge=np.bool_(True)).n_vertices == 3
+    box = trimesh.creation.box((1, 1, 1))
+    inverted = trimesh.Trimesh(box.vertices, box.faces[:, ::-1], process=False)
+    assert vs.load_mesh(inverted, repair=np.bool_(False)).volume < 0
+    assert vs.load_mesh(inverted, repair=np.True_).volume > 0
+
+
+def test_layer_heights_rejects_a_trimesh():
+    # issue 8 B4: a trimesh's millimetres were read as µm, giving 0 layers
+    box = trimesh.creation.box((10, 10, 10))
+    with pytest.raises(vs.InputTypeError, match=r"`mesh` must be a vecslice\.Mesh "
+                       r"\(see vecslice\.load_mesh\); got Trimesh"):
+        vs.layer_heights(box)
+    z, _, _ = vs.layer_heights(vs.load_mesh(box))
+    assert len(z) == 98  # 10 mm: 0.3 mm first layer, then 0.1 mm
 
 
 def test_check_mesh_rejects_non_mesh():

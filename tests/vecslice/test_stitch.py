@@ -1,5 +1,7 @@
+import numba
 import numpy as np
 import pytest
+import reference_stitch_quadratic
 import trimesh
 from hypothesis import given
 from hypothesis import strategies as st
@@ -9,6 +11,10 @@ import vecslice as vs
 from vecslice.errors import InputTypeError, SettingsError
 from vecslice.paths import LayerPaths
 from vecslice.stitch import Stitched, stitch
+
+# the large inputs take minutes when kernels run as plain Python (coverage runs)
+needs_jit = pytest.mark.skipif(numba.config.DISABLE_JIT,
+                               reason="NUMBA_DISABLE_JIT=1: too slow as plain Python")
 
 
 def _layer_paths(layers, open=None):
@@ -132,3 +138,64 @@ def test_float_gap_with_integer_value_is_accepted():
 def test_bad_loops(bad):
     with pytest.raises(InputTypeError, match=r"`loops` must be a vecslice\.LayerPaths"):
         stitch(bad)
+
+
+# ---------------------------------------------------------------- triangle soups
+
+def _soup(n, seed=0, size=10_000, edge=1_000):
+    """``n`` random triangles (corners within ``edge`` µm) in a 10 mm cube."""
+    rng = np.random.default_rng(seed)
+    corner = rng.integers(0, size, (n, 1, 3))
+    v = (corner + rng.integers(-edge // 2, edge // 2 + 1, (n, 3, 3))).reshape(-1, 3)
+    return vs.Mesh.from_arrays(v, np.arange(3 * n).reshape(n, 3))
+
+
+def _soup_raw(n):
+    mesh = _soup(n)
+    z, _, _ = vs.layer_heights(mesh, vs.SliceSettings())
+    raw = vs.slice_contours(mesh, z, stitch=False)
+    assert raw.n_rings == 0  # every triangle gives open chains only
+    return raw
+
+
+def _quadratic(chains):
+    """Per layer (new loops, open chains, joins) by the pre-issue-8 kernel."""
+    cc, cr, cl, oc, orr, ol, n = reference_stitch_quadratic.stitch_chains(
+        chains.coords, chains.ring_offsets, chains.layer_offsets, 20, 10_000
+    )
+    loops, still_open = LayerPaths(cc, cr, cl), LayerPaths(oc, orr, ol)
+    return [(loops.layer(k), still_open.layer(k), int(n[k]))
+            for k in range(chains.n_layers)]
+
+
+def _same_layer(got, want):
+    assert got[2] == want[2]
+    for a, b in zip(got[:2], want[:2], strict=True):
+        assert len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b))
+
+
+@needs_jit
+def test_triangle_soup_matches_quadratic_kernel():
+    raw = _soup_raw(2_000)
+    assert raw.open.rings_per_layer().max() > 100
+    loops, counts = stitch(raw)
+    want = _quadratic(raw.open)
+    for k in range(raw.n_layers):
+        _same_layer((loops.layer(k), loops.open.layer(k), int(counts[k])), want[k])
+
+
+@needs_jit
+def test_20k_triangle_soup_is_stitched_as_the_quadratic_kernel_does():
+    # issue 8 A3: this took minutes (thousands of chain ends within the 10 mm gap,
+    # all pairs listed). Layers are stitched independently, so the quadratic
+    # kernel checks the crowded layers alone (it takes seconds per layer).
+    raw = _soup_raw(20_000)
+    per_layer = raw.open.rings_per_layer()
+    assert per_layer.sum() > 90_000 and per_layer.max() > 1_000
+    loops, counts = stitch(raw)
+    assert counts.sum() > 90_000 and (counts <= per_layer).all()
+    crowded = sorted({int(np.argmax(per_layer)), len(per_layer) // 3})
+    subset = _layer_paths([[list(map(tuple, r)) for r in raw.open.layer(k)]
+                           for k in crowded])
+    for k, want in zip(crowded, _quadratic(subset), strict=True):
+        _same_layer((loops.layer(k), loops.open.layer(k), int(counts[k])), want)

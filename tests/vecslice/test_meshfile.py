@@ -1,0 +1,392 @@
+"""Reading STL, OBJ, PLY and OFF files (vecslice.meshfile): every failure is a
+MeshFileError naming the file, announced counts are checked, nothing is printed.
+Every file is generated here."""
+
+import logging
+import os
+import random
+import struct
+import sys
+import tracemalloc
+import warnings
+
+import numpy as np
+import pytest
+
+import vecslice as vs
+
+TRI_STL = (b"solid %s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+           b"vertex 0 1 0\nendloop\nendfacet\nendsolid %s\n")
+
+
+def write(tmp_path, name, data):
+    p = tmp_path / name
+    p.write_bytes(data.encode() if isinstance(data, str) else data)
+    return p
+
+
+def refused(path, match, **kw):
+    with pytest.raises(vs.MeshFileError, match=match) as info:
+        vs.load_mesh(path, **kw)
+    assert isinstance(info.value, OSError) and isinstance(info.value, vs.VecsliceError)
+    return info.value
+
+
+@pytest.fixture
+def no_charset_normalizer(monkeypatch):
+    """As on an install without charset_normalizer (issue 8 A1)."""
+    monkeypatch.setitem(sys.modules, "charset_normalizer", None)
+
+
+# ---------------------------------------------------------------------------
+# A1: every failure while reading becomes a MeshFileError naming the file
+# ---------------------------------------------------------------------------
+
+
+def test_ascii_stl_with_latin1_name_loads(tmp_path, no_charset_normalizer):
+    p = write(tmp_path, "caf.stl", TRI_STL % (b"caf\xe9 cr\xe8me", b"caf\xe9"))
+    m = vs.load_mesh(p)
+    assert m.vertices.tolist() == [[0, 0, 0], [1000, 0, 0], [0, 1000, 0]]
+
+
+@pytest.mark.parametrize("ext", ["stl", "obj", "ply", "off", "3mf"])
+def test_garbage_never_leaks_raw_exceptions(tmp_path, no_charset_normalizer, ext):
+    rng = random.Random(ext)
+    heads = {"stl": b"solid x\n", "obj": b"v 0 0 0\n", "ply": b"ply\n",
+             "off": b"OFF\n", "3mf": b"PK\x03\x04"}
+    for trial in range(30):
+        body = bytes(rng.randrange(256) for _ in range(rng.randrange(1, 400)))
+        data = heads[ext] + body if trial % 2 else body
+        p = write(tmp_path, f"g.{ext}", data)
+        with pytest.raises(vs.MeshFileError, match=r"g\." + ext):
+            vs.load_mesh(p)
+
+
+@pytest.mark.parametrize("exc", [ModuleNotFoundError("No module named 'x'"),
+                                 UnboundLocalError("cannot access local variable"),
+                                 RuntimeError("boom"), RecursionError("deep")])
+def test_any_parser_failure_becomes_mesh_file_error(tmp_path, monkeypatch, exc):
+    import trimesh
+
+    def fail(*a, **k):
+        raise exc
+
+    monkeypatch.setattr(trimesh, "load", fail)
+    p = write(tmp_path, "a.ply", PLY % ("vertex_indices", "3 0 1 2"))
+    err = refused(p, r"cannot read '.*a\.ply' as PLY: " + type(exc).__name__)
+    assert err.__cause__ is exc
+
+
+def test_memory_error_becomes_a_clear_mesh_file_error(tmp_path, monkeypatch):
+    import trimesh
+
+    def fail(*a, **k):
+        raise MemoryError
+
+    monkeypatch.setattr(trimesh, "load", fail)
+    p = write(tmp_path, "a.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+    refused(p, r"cannot read '.*a\.off' as OFF: ran out of memory")
+
+
+def test_keyboard_interrupt_is_not_swallowed(tmp_path, monkeypatch):
+    import trimesh
+
+    def stop(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(trimesh, "load", stop)
+    p = write(tmp_path, "a.ply", PLY % ("vertex_indices", "3 0 1 2"))
+    with pytest.raises(KeyboardInterrupt):
+        vs.load_mesh(p)
+
+
+# ---------------------------------------------------------------------------
+# A2: counts a file announces are checked before memory is spent
+# ---------------------------------------------------------------------------
+
+
+def _peak_mib(fn):
+    tracemalloc.start()
+    try:
+        fn()
+    finally:
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    return peak / 2**20
+
+
+def binary_stl(n_triangles, claimed=None):
+    head = b"\0" * 80 + struct.pack("<I", n_triangles if claimed is None else claimed)
+    rec = np.zeros(n_triangles, dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)),
+                                       ("a", "<u2")])
+    rec["v"] = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    rec["v"][:, :, 2] = np.arange(n_triangles)[:, None]
+    return head + rec.tobytes()
+
+
+def test_binary_stl_claiming_4e9_triangles(tmp_path):
+    p = write(tmp_path, "claim.stl", binary_stl(2, claimed=4_000_000_000))
+    refused(p, r"claim\.stl' holds no triangles \(binary STL header announces "
+            r"4000000000 triangles = 200000000084 bytes; the file has 184 bytes")
+    assert _peak_mib(lambda: _swallow(vs.load_mesh, p)) < 4
+
+
+def _swallow(fn, *a):
+    try:
+        fn(*a)
+    except vs.MeshFileError:
+        pass
+
+
+def test_triangle_limit(tmp_path, monkeypatch):
+    monkeypatch.setattr("vecslice.meshfile.MAX_TRIANGLES", 10)
+    assert vs.load_mesh(write(tmp_path, "ok.stl", binary_stl(10))).n_faces == 10
+    refused(write(tmp_path, "big.stl", binary_stl(11)),
+            r"big\.stl' announces 11 triangles; vecslice reads at most 10 triangles "
+            r"\(vecslice\.meshfile\.MAX_TRIANGLES\)")
+    obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\n" + "f 1 2 3\n" * 11
+    refused(write(tmp_path, "big.obj", obj), r"announces 11 faces")
+    refused(write(tmp_path, "big.off",
+                  "OFF\n3 11 0\n0 0 0\n1 0 0\n0 1 0\n" + "3 0 1 2\n" * 11),
+            r"big\.off' announces 11 faces")
+
+
+PLY = ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+       "property float y\nproperty float z\nelement face 1\n"
+       "property list uchar int %s\nend_header\n0 0 0\n1 0 0\n0 1 0\n%s\n")
+
+
+@pytest.mark.parametrize("fmt", ["ascii", "binary_little_endian"])
+def test_ply_header_claiming_huge_counts(tmp_path, fmt):
+    head = (f"ply\nformat {fmt} 1.0\nelement vertex %d\nproperty float x\n"
+            "property float y\nproperty float z\nelement face 1\n"
+            "property list uchar int vertex_indices\nend_header\n")
+    p = write(tmp_path, "huge.ply", (head % 50_000_000).encode() + b"\0" * 64)
+    per, face = (12, 1) if fmt.startswith("binary") else (6, 2)
+    refused(p, r"huge\.ply' is truncated or corrupt: its PLY header announces "
+            r"50,000,000 'vertex' and 1 'face' elements \(at least "
+            + f"{50_000_000 * per + face:,}" + r" bytes\), but 64 bytes follow the "
+            r"header")
+    assert _peak_mib(lambda: _swallow(vs.load_mesh, p)) < 4
+    p = write(tmp_path, "huger.ply", (head % 4_000_000_000).encode() + b"\0" * 64)
+    refused(p, r"huger\.ply' announces 4,000,000,000 vertices; vecslice reads at "
+            r"most 300,000,000 vertices \(3 x vecslice\.meshfile\.MAX_TRIANGLES\)")
+
+
+def test_off_header_claiming_huge_counts(tmp_path):
+    p = write(tmp_path, "huge.off", "OFF\n# made by hand\n3000000000 1 0\n0 0 0\n")
+    refused(p, r"huge\.off' is truncated or corrupt: its OFF header announces "
+            r"3,000,000,000 vertices and 1 faces")
+
+
+# ---------------------------------------------------------------------------
+# STL
+# ---------------------------------------------------------------------------
+
+
+def test_binary_stl_starting_with_solid(tmp_path):
+    data = binary_stl(3)
+    p = write(tmp_path, "s.stl", b"solid trap" + data[10:])
+    m = vs.load_mesh(p, repair=False)
+    assert m.n_faces == 3 and m.zrange == (0, 2000)
+
+
+def test_odd_paths_and_tiny_files(tmp_path):
+    refused(str(tmp_path / "a\0b.stl"), r"cannot open .*embedded null")
+
+    class BytesPath:
+        def __fspath__(self):
+            return b"x.stl"
+
+    with pytest.raises(vs.InputTypeError, match=r"`path_or_trimesh` must be a file "
+                       r"path \(str\)"):
+        vs.load_mesh(BytesPath())
+    # 34 bytes = 84 + 50 * -1: no header to read, not a binary STL
+    refused(write(tmp_path, "t.stl", b"\x01" * 34), r"t\.stl' holds no triangles "
+            r"\(binary STL needs an 84-byte header; the file has 34 bytes\)")
+
+
+def test_ascii_stl_multi_solid_and_upper_case(tmp_path):
+    one = TRI_STL % (b"a", b"a")
+    two = (TRI_STL % (b"b", b"b")).upper().replace(b"VERTEX 0 0 0", b"VERTEX 0 0 5")
+    m = vs.load_mesh(write(tmp_path, "two.stl", one + two), repair=False)
+    assert m.n_faces == 2 and m.zrange == (0, 5000)
+
+
+@pytest.mark.parametrize(("label", "data", "match"), [
+    ("quad facet", (TRI_STL % (b"q", b"q")).replace(
+        b"endloop", b"vertex 1 1 0\nendloop"),
+     r"ASCII STL facets must have 3 vertices each; got 4 vertices in 1 facets"),
+    ("bad number", (TRI_STL % (b"n", b"n")).replace(b"vertex 1 0 0", b"vertex 1 0 x"),
+     r"vertex 2 has 'x' where a number should be"),
+    ("truncated", (TRI_STL % (b"t", b"t"))[:-12], r"truncated\?"),
+])
+def test_broken_ascii_stl(tmp_path, label, data, match):
+    refused(write(tmp_path, "b.stl", data), r"b\.stl.*" + match)
+
+
+# ---------------------------------------------------------------------------
+# OBJ (B8 and D7: indices 1-based as in the file)
+# ---------------------------------------------------------------------------
+
+V3 = "v 0 0 0\nv 1 0 0\nv 0 1 0\n"
+
+
+def test_obj_face_index_zero_is_refused(tmp_path):
+    p = write(tmp_path, "zero.obj", V3 + "v 0 0 1\nf 1 2 3\nf 0 1 2\n")
+    refused(p, r"zero\.obj' is corrupt: face 2 \(line 6\) refers to vertex 0; OBJ "
+            r"vertex indices start at 1")
+
+
+@pytest.mark.parametrize(("label", "text", "match"), [
+    ("beyond", V3 + "f 1 2 4\n", r"face 1 \(line 4\) refers to vertex 4; the file "
+     r"has 3 vertices"),
+    ("negative beyond", V3 + "f -1 -2 -4\n", r"face 1 \(line 4\) refers to vertex "
+     r"-4; only 3 vertices are defined before it"),
+    ("negative before definition", "v 0 0 0\nv 1 0 0\nf -1 -2 -3\nv 0 1 0\n",
+     r"face 1 \(line 3\) refers to vertex -3; only 2 vertices"),
+    ("two corners", V3 + "# c\nf 1 2\n", r"face 1 \(line 5\) has 2 vertices; a face "
+     r"needs at least 3"),
+    ("not a number", V3 + "f 1 2 3\nf 1 b 3\n", r"face 2 \(line 5\) has vertex index "
+     r"'b'"),
+    ("short vertex", "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n", r"line 2 defines a vertex "
+     r"without three coordinates"),
+    ("bad coordinate", "v 0 0 0\nv 1 0 q\nv 0 1 0\nf 1 2 3\n",
+     r"vertex 2 has 'q' where a number should be"),
+])
+def test_broken_obj(tmp_path, label, text, match):
+    refused(write(tmp_path, "b.obj", text), r"b\.obj.*" + match)
+
+
+def test_obj_negative_indices_count_back_from_the_face(tmp_path):
+    # trimesh resolved them from the end of the file: both faces the second one
+    text = V3 + "f -3 -2 -1\nv 0 0 5\nv 1 0 5\nv 0 1 5\nf -3 -2 -1\n"
+    m = vs.load_mesh(write(tmp_path, "rel.obj", text), repair=False)
+    assert m.vertices[m.faces].tolist() == [
+        [[0, 0, 0], [1000, 0, 0], [0, 1000, 0]],
+        [[0, 0, 5000], [1000, 0, 5000], [0, 1000, 5000]]]
+
+
+def test_obj_polygons_slashes_comments_and_continuations(tmp_path):
+    text = ("# a pentagon and a quad\nmtllib none.mtl\no thing\n"
+            "v 0 0 0\nv 4 0 0\nv 4 4 0\nv 0 4 0\nv -2 2 0 0.5 0.5 0.5\n"
+            "vt 0 0\nvn 0 0 1\nusemtl x\ns off\n"
+            "f 1/1/1 2/1/1 3//1 4/1 \\\n 5  # five corners\n"
+            "g quad\nf 1 2 3 4\nl 1 2\n")
+    m = vs.load_mesh(write(tmp_path, "p.obj", text), repair=False)
+    assert m.n_faces == 3 + 2
+    assert m.faces[:3].tolist() == [[0, 1, 2], [0, 2, 3], [0, 3, 4]]
+    assert vs.check_mesh(m).zero_area_faces == 0
+
+
+def test_obj_matches_trimesh_on_the_shared_meshes(meshes_dir):
+    import trimesh
+
+    for name in ("stanford-bunny.obj", "openscad-nonmanifold-crash.obj"):
+        tm = trimesh.load(meshes_dir / name, process=False)
+        ours = vs.load_mesh(meshes_dir / name, repair=False)
+        theirs = vs.load_mesh(tm, repair=False)
+        # the same triangles in the same order (trimesh drops unused vertices,
+        # so vertex numbers differ)
+        assert np.array_equal(ours.vertices[ours.faces], theirs.vertices[theirs.faces])
+        assert ours.load_info.vertices_in == {"stanford-bunny.obj": 35947}.get(
+            name, 717)
+
+
+# ---------------------------------------------------------------------------
+# PLY (C1) and OFF
+# ---------------------------------------------------------------------------
+
+
+def test_ply_face_property_with_another_name_loads(tmp_path):
+    # trimesh raised UnboundLocalError for a face list not named vertex_indices
+    m = vs.load_mesh(write(tmp_path, "odd.ply", PLY % ("vidx", "3 0 1 2")))
+    assert m.n_faces == 1 and m.bounds.tolist() == [[0, 0, 0], [1000, 1000, 0]]
+    two = (PLY % ("a", "3 0 1 2 0")).replace(
+        "end_header", "property list uchar int b\nend_header")
+    refused(write(tmp_path, "two.ply", two),
+            r"two\.ply': the PLY face element must have one list property of vertex "
+            r"indices; got list properties \['a', 'b'\]")
+
+
+def test_ply_binary_and_quads(tmp_path):
+    head = (b"ply\nformat binary_little_endian 1.0\nelement vertex 4\n"
+            b"property float x\nproperty float y\nproperty float z\nelement face 1\n"
+            b"property list uchar int vertex_indices\nend_header\n")
+    v = np.array([[0, 0, 0], [2, 0, 0], [2, 2, 0], [0, 2, 0]], "<f4").tobytes()
+    f = bytes([4]) + np.array([0, 1, 2, 3], "<i4").tobytes()
+    m = vs.load_mesh(write(tmp_path, "q.ply", head + v + f), repair=False)
+    assert m.n_faces == 2 and vs.check_mesh(m).zero_area_faces == 0
+
+
+def test_off_loads(tmp_path):
+    m = vs.load_mesh(write(tmp_path, "a.off", "OFF\n4 1 0\n0 0 0\n2 0 0\n2 2 0\n"
+                           "0 2 0\n4 0 1 2 3\n"), repair=False)
+    assert m.n_faces == 2
+
+
+# ---------------------------------------------------------------------------
+# D6: nothing printed for files that load
+# ---------------------------------------------------------------------------
+
+
+def test_loading_prints_and_warns_nothing(tmp_path, capfd):
+    stl = (TRI_STL % (b"x", b"x")).replace(b"normal 0 0 1", b"normal 0 0 x")
+    ply = (PLY % ("vertex_indices", "3 0 1 2")).replace(
+        "format ascii 1.0\n", "format ascii 1.0\ncomment TextureFile none.png\n"
+    ).replace("property float z\n", "property float z\nproperty float texture_u\n"
+              "property float texture_v\nproperty float red\n").replace(
+        "0 0 0\n1 0 0\n0 1 0\n", "0 0 0 0 0 nan\n1 0 0 1 0 1e300\n0 1 0 0 1 -1\n")
+    logger = logging.getLogger("trimesh")
+    filters = list(logger.filters)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for name, data in (("n.stl", stl), ("t.ply", ply)):
+            assert vs.load_mesh(write(tmp_path, name, data)).n_faces == 1
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""
+    assert logger.filters == filters  # nothing left behind
+
+
+# ---------------------------------------------------------------------------
+# D7: messages about the path, coordinates and scale
+# ---------------------------------------------------------------------------
+
+
+def test_symlink_loop_and_broken_link(tmp_path):
+    a, b = tmp_path / "a.stl", tmp_path / "b.stl"
+    a.symlink_to(b)
+    b.symlink_to(a)
+    refused(a, r"'.*a\.stl' is a symbolic link loop")
+    c = tmp_path / "c.stl"
+    c.symlink_to(tmp_path / "gone.stl")
+    refused(c, r"'.*c\.stl' is a broken symbolic link: its target '.*gone\.stl' does "
+            r"not exist")
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes")
+def test_pipe_is_refused_without_reading(tmp_path):
+    p = tmp_path / "pipe.stl"
+    os.mkfifo(p)
+    refused(p, r"'.*pipe\.stl' is not a regular file")
+
+
+def test_coordinate_errors_name_the_vertex_with_plain_numbers(tmp_path):
+    p = write(tmp_path, "far.obj", V3 + "v 2e6 0.5 0\nf 1 2 4\n")
+    with pytest.raises(vs.InputValueError) as info:
+        vs.load_mesh(p)
+    msg = str(info.value)
+    assert "np.float64" not in msg and "flat index" not in msg
+    assert "got (2e+06, 0.5, 0) mm at vertex 3 of '" in msg
+    with pytest.raises(vs.InputValueError, match=r"got \(1, 0, 0\) x scale 2e\+06 mm "
+                       r"at vertex 1"):
+        vs.load_mesh(write(tmp_path, "v.obj", V3 + "f 1 2 3\n"), scale=2e6)
+    with pytest.raises(vs.InputValueError, match=r"`vertices` must be finite; got "
+                       r"\[0\.0, 1\.0, nan\] at vertex 2"):
+        vs.load_mesh(write(tmp_path, "n.obj", "v 0 0 0\nv 1 0 0\nv 0 1 nan\nf 1 2 3\n"))
+
+
+def test_scale_that_collapses_every_face_is_named(tmp_path):
+    p = write(tmp_path, "tiny.obj", V3 + "f 1 2 3\n")
+    refused(p, r"tiny\.obj': .* all 1 faces have two corners at the same position at "
+            r"scale 0\.0001 \(file units to mm\): is the scale right\?", scale=1e-4)

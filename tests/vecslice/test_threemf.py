@@ -1,0 +1,365 @@
+"""3MF reading (vecslice.threemf): every placement, units, limits, hostile
+packages. Every package is generated here."""
+
+import io
+import struct
+import tracemalloc
+import zipfile
+
+import numpy as np
+import pytest
+
+import vecslice as vs
+
+CORE = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
+PROD = "http://schemas.microsoft.com/3dmanufacturing/production/2015/06"
+RELS = (
+    '<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns='
+    '"http://schemas.openxmlformats.org/package/2006/relationships"><Relationship '
+    'Target="/3D/3dmodel.model" Id="rel0" Type='
+    '"http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>'
+)
+# a tetrahedron with its right-angle corner at the origin, 10 mm legs, outward
+TET_V = [(0, 0, 0), (10, 0, 0), (0, 10, 0), (0, 0, 10)]
+TET_F = [(0, 2, 1), (0, 1, 3), (1, 2, 3), (0, 3, 2)]
+
+
+def mesh_object(oid, v=TET_V, f=TET_F):
+    verts = "".join(f'<vertex x="{x}" y="{y}" z="{z}"/>' for x, y, z in v)
+    tris = "".join(f'<triangle v1="{a}" v2="{b}" v3="{c}"/>' for a, b, c in f)
+    return (f'<object id="{oid}" type="model"><mesh><vertices>{verts}</vertices>'
+            f"<triangles>{tris}</triangles></mesh></object>")
+
+
+def move(dx=0, dy=0, dz=0, m=(1, 0, 0, 0, 1, 0, 0, 0, 1)):
+    return " ".join(str(x) for x in (*m, dx, dy, dz))
+
+
+def components_object(oid, parts):
+    """parts: (objectid, transform or None, extra attributes)."""
+    comps = "".join(
+        f'<component objectid="{o}"'
+        + (f' transform="{t}"' if t else "") + f"{extra}/>"
+        for o, t, extra in parts)
+    return f'<object id="{oid}" type="model"><components>{comps}</components></object>'
+
+
+def model(resources, items, unit=None, head=""):
+    u = f' unit="{unit}"' if unit is not None else ""
+    build = "".join(
+        f'<item objectid="{o}"' + (f' transform="{t}"' if t else "") + "/>"
+        for o, t in items)
+    return (f'<?xml version="1.0" encoding="UTF-8"?>{head}<model{u} xmlns="{CORE}" '
+            f'xmlns:p="{PROD}"><resources>{resources}</resources>'
+            f"<build>{build}</build></model>")
+
+
+def write_3mf(path, model_xml, *, rels=RELS, extra=(), method=zipfile.ZIP_DEFLATED):
+    with zipfile.ZipFile(path, "w", method) as z:
+        z.writestr("[Content_Types].xml", "<Types/>")
+        if rels is not None:
+            z.writestr("_rels/.rels", rels)
+        if model_xml is not None:
+            z.writestr("3D/3dmodel.model", model_xml)
+        for name, data in extra:
+            z.writestr(name, data)
+    return path
+
+
+def load(tmp_path, model_xml, name="m.3mf", **kw):
+    return vs.load_mesh(write_3mf(tmp_path / name, model_xml, **kw), repair=False)
+
+
+def refused(tmp_path, model_xml, match, **kw):
+    with pytest.raises(vs.MeshFileError, match=match) as info:
+        load(tmp_path, model_xml, **kw)
+    assert isinstance(info.value, OSError)
+    return info.value
+
+
+# ---------------------------------------------------------------------------
+# placements
+# ---------------------------------------------------------------------------
+
+
+def test_nested_reused_components_give_every_placement(tmp_path):
+    # issue 8 B3: 5 x 5 x 5 placements of one tetrahedron through three levels
+    # of reused components (trimesh's flattening kept 63 of 125)
+    res = (mesh_object(1)
+           + components_object(2, [(1, move(dx=20 * i), "") for i in range(5)])
+           + components_object(3, [(2, move(dy=20 * j), "") for j in range(5)])
+           + components_object(4, [(3, move(dz=20 * k), "") for k in range(5)]))
+    m = load(tmp_path, model(res, [(4, None)]))
+    assert m.n_bodies == 125 and m.n_faces == 500 and m.is_watertight
+    corners = {tuple(c) for c in m.vertices[m.faces[::4, 0]].tolist()}
+    lows = {tuple(m.vertices[m.faces[4 * b : 4 * b + 4]].reshape(-1, 3).min(axis=0))
+            for b in range(125)}
+    assert lows == {(20000 * i, 20000 * j, 20000 * k)
+                    for i in range(5) for j in range(5) for k in range(5)}
+    assert len(corners) == 125
+    assert m.volume == pytest.approx(125 * 10_000**3 / 6)
+
+
+def test_transforms_compose_component_first_then_item(tmp_path):
+    # 3MF points are row vectors: p' = p @ M (3x3 rows, then the translation).
+    # Component: 90 degrees about z (x -> y) and up 5 mm; item: scale 2, +100 x.
+    rot = move(dz=5, m=(0, 1, 0, -1, 0, 0, 0, 0, 1))
+    item = move(dx=100, m=(2, 0, 0, 0, 2, 0, 0, 0, 2))
+    m = load(tmp_path, model(mesh_object(1) + components_object(2, [(1, rot, "")]),
+                             [(2, item)]))
+    # (10, 0, 0) -> (0, 10, 5) -> (0, 20, 10) + (100, 0, 0)
+    assert [100000, 20000, 10000] in m.vertices.tolist()
+    assert m.bounds.tolist() == [[80000, 0, 10000], [100000, 20000, 30000]]
+    assert m.volume == pytest.approx(8 * 10_000**3 / 6)  # scale 2: 8 x, outward
+
+
+def test_mirrored_placement_keeps_outward_winding(tmp_path):
+    mirror = move(dx=50, m=(-1, 0, 0, 0, 1, 0, 0, 0, 1))
+    m = load(tmp_path, model(mesh_object(1), [(1, None), (1, mirror)]))
+    assert m.n_bodies == 2 and m.is_watertight
+    assert m.volume == pytest.approx(2 * 10_000**3 / 6)  # both outward, no repair
+    assert m.bounds.tolist() == [[0, 0, 0], [50000, 10000, 10000]]
+
+
+def test_components_in_another_model_part(tmp_path):
+    # production extension: a component's p:path names another model part
+    other = model(mesh_object(7), [])
+    res = components_object(1, [(7, move(dx=30), ' p:path="/3D/other.model"'),
+                                (7, None, ' p:path="/3D/other.model"')])
+    m = load(tmp_path, model(res, [(1, None)]),
+             extra=[("3D/other.model", other)])
+    assert m.n_bodies == 2 and m.bounds.tolist() == [[0, 0, 0], [40000, 10000, 10000]]
+
+
+def test_shared_3mf_files_keep_their_counts(meshes_dir):
+    p = vs.load_mesh(meshes_dir / "pyramids.3mf", repair=False)
+    assert (p.load_info.faces_in, p.n_bodies, p.n_vertices) == (3276, 12, 1662)
+    b = vs.load_mesh(meshes_dir / "3DBenchy.3mf", repair=False)
+    assert (b.load_info.faces_in, b.load_info.vertices_in, b.n_faces) == (
+        225154, 112569, 225146)
+
+
+# ---------------------------------------------------------------------------
+# units
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("unit", "um"), [
+    (None, 10_000), ("millimeter", 10_000), ("micron", 10), ("centimeter", 100_000),
+    ("inch", 254_000), ("foot", 3_048_000), ("meter", 10_000_000)])
+def test_unit_is_applied(tmp_path, unit, um):
+    # issue 8 B2: inch, micron, centimetre files loaded as millimetres
+    m = load(tmp_path, model(mesh_object(1), [(1, move(dx=1))], unit=unit))
+    assert m.bounds.tolist() == [[um // 10, 0, 0], [um + um // 10, um, um]]
+
+
+def test_unit_and_scale_multiply(tmp_path):
+    path = write_3mf(tmp_path / "i.3mf", model(mesh_object(1), [(1, None)], "inch"))
+    assert vs.load_mesh(path, scale=0.5).bounds[1].tolist() == [127000] * 3
+
+
+@pytest.mark.parametrize("unit", ["furlong", "mm", "Millimeter", ""])
+def test_unknown_unit_is_refused(tmp_path, unit):
+    refused(tmp_path, model(mesh_object(1), [(1, None)], unit=unit),
+            r"'.*m\.3mf': 3MF unit must be one of micron, millimeter, centimeter, "
+            r"inch, foot, meter; got '" + unit + "'")
+
+
+# ---------------------------------------------------------------------------
+# zip bombs and size limits (issue 8 A2)
+# ---------------------------------------------------------------------------
+
+
+def _peak_mib(fn):
+    tracemalloc.start()
+    try:
+        fn()
+    finally:
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    return peak / 2**20
+
+
+def test_zip_bomb_model_is_refused_before_inflating(tmp_path):
+    # a valid model followed by 64 MiB of spaces: deflates about 1000 times
+    xml = model(mesh_object(1), [(1, None)]) + " " * (64 << 20)
+    path = write_3mf(tmp_path / "bomb.3mf", xml)
+    assert path.stat().st_size < 1 << 20
+    with pytest.raises(vs.MeshFileError, match=r"3MF part '/3D/3dmodel\.model' "
+                       r"would inflate 1,0\d\d times .* a zip bomb\?"):
+        vs.load_mesh(path)
+    assert _peak_mib(lambda: _refuse(path)) < 8
+
+
+def _refuse(path):
+    with pytest.raises(vs.MeshFileError):
+        vs.load_mesh(path)
+
+
+def test_model_bytes_limit(tmp_path, monkeypatch):
+    monkeypatch.setattr("vecslice.threemf.MAX_MODEL_BYTES", 2000)
+    big = model(mesh_object(1, v=TET_V * 20), [(1, None)])  # > 2000 bytes
+    assert len(big) > 2000
+    refused(tmp_path, big, r"3MF part '/3D/3dmodel\.model' inflates to [\d,]+ bytes, "
+            r"more than the [\d,]+ bytes left of vecslice's limit on model XML "
+            r"\(2,000 bytes, vecslice\.threemf\.MAX_MODEL_BYTES\)")
+    load(tmp_path, model(mesh_object(1), [(1, None)]))  # a small one still loads
+
+
+def test_only_model_parts_are_inflated(tmp_path):
+    # a 64 MiB thumbnail and texture (1000 x compressed) are never read
+    bomb = b"\0" * (64 << 20)
+    path = write_3mf(tmp_path / "t.3mf", model(mesh_object(1), [(1, None)]),
+                     extra=[("Metadata/thumbnail.png", bomb),
+                            ("3D/Textures/t.png", bomb)])
+    assert _peak_mib(lambda: vs.load_mesh(path)) < 8
+    assert vs.load_mesh(path).n_faces == 4
+
+
+def test_zip_entry_lying_about_its_size(tmp_path):
+    xml = model(mesh_object(1), [(1, None)]).encode()
+    path = write_3mf(tmp_path / "lie.3mf", xml, method=zipfile.ZIP_STORED)
+    data = bytearray(path.read_bytes())
+    # claim 100 bytes in the central directory entry of the model
+    cd = data.rfind(b"PK\x01\x02", 0, data.rfind(b"3D/3dmodel.model"))
+    struct.pack_into("<I", data, cd + 24, 100)
+    path.write_bytes(bytes(data))
+    with pytest.raises(vs.MeshFileError, match=r"cannot read .* as 3MF"):
+        vs.load_mesh(path)
+
+
+def test_absurd_expansion_is_refused_before_placing(tmp_path):
+    # 10 levels of 10 components: 10**10 tetrahedra
+    res = mesh_object(1) + "".join(
+        components_object(k + 1, [(k, None, "")] * 10) for k in range(1, 11))
+    err = refused(tmp_path, model(res, [(11, None)]),
+                  r"the 3MF build expands to 40,000,000,000 triangles; vecslice "
+                  r"reads at most 100,000,000 \(vecslice\.meshfile\.MAX_TRIANGLES\)")
+    assert err.__cause__ is None
+
+
+def test_absurd_placement_count_is_refused(tmp_path, monkeypatch):
+    monkeypatch.setattr("vecslice.threemf.MAX_INSTANCES", 1000)
+    res = mesh_object(1) + "".join(
+        components_object(k + 1, [(k, None, "")] * 10) for k in range(1, 4))
+    refused(tmp_path, model(res, [(4, None)]),
+            r"expands to 1,111 object placements; vecslice reads at most 1,000")
+
+
+def test_component_cycle_is_refused(tmp_path):
+    res = (mesh_object(1) + components_object(2, [(1, None, ""), (3, None, "")])
+           + components_object(3, [(4, None, "")])
+           + components_object(4, [(2, None, "")]))
+    refused(tmp_path, model(res, [(2, None)]),
+            r"3MF components form a cycle: objects 2 -> 3 -> 4 -> 2")
+
+
+# ---------------------------------------------------------------------------
+# XML safety and damaged models
+# ---------------------------------------------------------------------------
+
+XXE = '<!DOCTYPE model [<!ENTITY xxe SYSTEM "file:///etc/hostname">]>'
+LAUGHS = ("<!DOCTYPE model [<!ENTITY a \"aaaaaaaaaa\">"
+          + "".join(f'<!ENTITY {c} "' + f"&{p};" * 10 + '">'
+                    for p, c in zip("abcdefgh", "bcdefghi"))
+          + "]>")
+
+
+@pytest.mark.parametrize(("label", "head", "x"), [
+    ("xxe", XXE, "&xxe;"),
+    ("billion laughs", LAUGHS, "&i;"),
+    ("after a comment", "<!-- hi --><?pi x?>\n" + XXE, "&xxe;"),
+])
+def test_document_type_declarations_are_refused(tmp_path, label, head, x):
+    obj = mesh_object(1).replace('x="10"', f'x="{x}"', 1)
+    refused(tmp_path, model(obj, [(1, None)], head=head),
+            r"has a document type declaration \(DTD\), which 3MF does not allow")
+
+
+def test_utf16_model_with_dtd_is_refused(tmp_path):
+    xml = model(mesh_object(1), [(1, None)], head=XXE).replace(
+        'encoding="UTF-8"', 'encoding="UTF-16"').encode("utf-16")
+    refused(tmp_path, xml, r"document type declaration")
+
+
+BAD_MODELS = [
+    ("no build items", model(mesh_object(1), []), r"the 3MF build places no objects"),
+    ("undefined object", model(mesh_object(1), [(2, None)]),
+     r"build item 1 refers to object 2, which is not defined"),
+    ("bad transform", model(mesh_object(1), [(1, "1 0 0 1")]),
+     r"build item 1 has transform '1 0 0 1'; expected 12 finite numbers"),
+    ("nan transform", model(mesh_object(1), [(1, move(dx="nan"))]),
+     r"expected 12 finite numbers"),
+    ("index out of range", model(mesh_object(1, f=[(0, 1, 4)]), [(1, None)]),
+     r"object 1: triangle 0 refers to vertices \[0, 1, 4\], but the object has 4 "
+     r"vertices"),
+    ("bad coordinate", model(mesh_object(1).replace('x="10"', 'x="1O"', 1),
+                             [(1, None)]),
+     r"object 1: vertex 1 has coordinates '1O 0 0'; expected x, y and z numbers"),
+    ("missing coordinate", model(mesh_object(1).replace(' y="10"', "", 1),
+                                 [(1, None)]),
+     r"vertex 2 has coordinates '0 None 0'"),
+    ("fractional index", model(mesh_object(1).replace('v3="1"', 'v3="1.5"', 1),
+                               [(1, None)]),
+     r"triangle 0 has vertices '0 2 1\.5'"),
+    ("duplicate id", model(mesh_object(1) + mesh_object(1), [(1, None)]),
+     r"object 1 is defined twice"),
+    ("object id", model(mesh_object("x"), [(1, None)]),
+     r"an object in '/3D/3dmodel\.model' has id 'x'; expected a number"),
+    ("unknown required extension",
+     model(mesh_object(1), [(1, None)]).replace(
+         "<model ", '<model xmlns:b="http://example.com/beams" '
+         'requiredextensions="b" '),
+     r"3MF requires the extension 'http://example\.com/beams', which vecslice does "
+     r"not read"),
+    ("not a model", '<?xml version="1.0"?><foo><object id="1"/></foo>',
+     r"3MF part '/3D/3dmodel\.model' is not a 3D model \(its root element is <foo>"),
+    ("missing part", model(components_object(
+        1, [(7, None, ' p:path="/3D/none.model"')]), [(1, None)]),
+     r"a component of object 1 refers to part '3d/none\.model', which the package "
+     r"does not contain"),
+]
+
+
+@pytest.mark.parametrize(("label", "xml", "match"), BAD_MODELS,
+                         ids=[c[0] for c in BAD_MODELS])
+def test_damaged_models_are_refused_clearly(tmp_path, label, xml, match):
+    refused(tmp_path, xml, match)
+
+
+def test_required_production_extension_is_read(tmp_path):
+    xml = model(mesh_object(1), [(1, None)]).replace(
+        "<model ", '<model requiredextensions="p" ')
+    assert load(tmp_path, xml).n_faces == 4
+
+
+def test_package_without_rels_uses_the_conventional_model_part(tmp_path):
+    assert load(tmp_path, model(mesh_object(1), [(1, None)]), rels=None).n_faces == 4
+    with pytest.raises(vs.MeshFileError, match=r"3MF holds no 3D model: no part is "
+                       r"named in _rels/\.rels as the 3D model, and there is no "
+                       r"3D/3dmodel\.model"):
+        load(tmp_path, None, rels=None, name="empty.3mf")
+
+
+def test_garbage_and_truncated_packages(tmp_path):
+    good = write_3mf(tmp_path / "g.3mf", model(mesh_object(1), [(1, None)]))
+    data = good.read_bytes()
+    rng = np.random.default_rng(5)
+    for trial in range(40):
+        d = bytearray(data[: rng.integers(1, len(data))] if trial % 2 else data)
+        if trial % 2 == 0:
+            for i in rng.integers(0, len(d), 8):
+                d[i] = int(rng.integers(0, 256))
+        p = tmp_path / "bad.3mf"
+        p.write_bytes(bytes(d))
+        try:
+            vs.load_mesh(p)
+        except vs.VecsliceError:
+            pass
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        z.writestr("_rels/.rels", "<Relationships")  # cut XML in the rels
+    (tmp_path / "r.3mf").write_bytes(buf.getvalue())
+    with pytest.raises(vs.MeshFileError, match=r"as 3MF: XMLSyntaxError in part "
+                       r"'_rels/\.rels'"):
+        vs.load_mesh(tmp_path / "r.3mf")

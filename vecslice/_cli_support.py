@@ -1,0 +1,211 @@
+"""Plumbing of the ``vecslice`` command: messages, output checks, safe writes.
+
+Kept apart from :mod:`vecslice.cli` (the options and the commands) so that both stay
+short. Nothing here imports numba, trimesh or matplotlib.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+from dataclasses import fields
+from pathlib import Path
+from typing import Any
+
+from vecslice.errors import InputValueError
+
+__all__ = [
+    "COMPILE_MESSAGE",
+    "CliInputError",
+    "CompileNotice",
+    "check_output",
+    "flush_and_exit",
+    "human_bytes",
+    "load_info_lines",
+    "note",
+    "size_hint",
+]
+
+COMPILE_MESSAGE = "vecslice: compiling kernels, first run only"
+
+
+class CliInputError(InputValueError):
+    """A command-line value that vecslice rejects (exit status 1)."""
+
+
+def note(message: str) -> None:
+    """One line on stderr, prefixed ``vecslice: ``."""
+    print(f"vecslice: {message}", file=sys.stderr, flush=True)
+
+
+class CompileNotice:
+    """Say once on stderr that kernels are being compiled (a cold numba cache).
+
+    Numba reports every real compilation (``numba:compile``; a kernel loaded from
+    the on-disk cache does not emit it), so the line appears on a first run only.
+    The lazy kernels' ``compile_listeners`` measure the time spent making kernels
+    ready, for the closing line.
+    """
+
+    def __init__(self, stream: Any = None) -> None:
+        self.stream = stream
+        self.compiled = 0
+        self.seconds = 0.0
+        self._lock = threading.Lock()
+        self._depth = threading.local()
+        self._listener: Any = None
+
+    def _announce(self) -> None:
+        with self._lock:
+            self.compiled += 1
+            first = self.compiled == 1
+        if first:
+            print(COMPILE_MESSAGE + " (later runs load them from the cache)",
+                  file=self.stream or sys.stderr, flush=True)
+
+    def _ready(self, event: str, name: str, seconds: float) -> None:
+        # kernels called by a kernel are made ready inside their caller's
+        # compilation: count the outermost ones only, per thread
+        depth = getattr(self._depth, "n", 0)
+        if event == "start":
+            self._depth.n = depth + 1
+            return
+        self._depth.n = depth - 1
+        if depth == 1:
+            with self._lock:
+                self.seconds += seconds
+
+    def __enter__(self) -> CompileNotice:
+        from numba.core import event
+
+        from vecslice._kernels import _jit
+
+        notice = self
+
+        class _Listener(event.Listener):
+            def on_start(self, ev: Any) -> None:
+                notice._announce()
+
+            def on_end(self, ev: Any) -> None:
+                pass
+
+        self._listener = _Listener()
+        event.register("numba:compile", self._listener)
+        _jit.compile_listeners.append(self._ready)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        from numba.core import event
+
+        from vecslice._kernels import _jit
+
+        event.unregister("numba:compile", self._listener)
+        if self._ready in _jit.compile_listeners:
+            _jit.compile_listeners.remove(self._ready)
+        if self.compiled and exc[0] is None:
+            print(f"vecslice: compiled kernels in {self.seconds:.1f} s; they are "
+                  "cached for the next run", file=self.stream or sys.stderr,
+                  flush=True)
+
+
+def check_output(path: Path | None, suffixes: tuple[str, ...] = (),
+                 flag: str = "-o") -> Path | None:
+    """Check, before any work, that ``path`` can be written.
+
+    Raises
+    ------
+    CliInputError
+        If ``path`` is a directory, its directory does not exist or cannot be
+        written, or its suffix is not one of ``suffixes`` (when given).
+    """
+    if path is None:
+        return None
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise CliInputError(f"{flag} must name a {' or '.join(suffixes)} file; "
+                            f"got '{path}'")
+    if path.is_dir():
+        raise CliInputError(f"{flag} '{path}' is a directory; give a file name")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.exists():
+        raise CliInputError(f"{flag} '{path}': the directory '{parent}' does not "
+                            "exist")
+    if not parent.is_dir():
+        raise CliInputError(f"{flag} '{path}': '{parent}' is not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise CliInputError(f"{flag} '{path}': the directory '{parent}' is not "
+                            "writable")
+    return path
+
+
+_LOADING = ("source", "faces_in", "vertices_in")
+_CLEANUP = {
+    "vertices_merged": "vertices merged (same position)",
+    "vertices_unused": "unused vertices dropped",
+    "faces_degenerate": "degenerate faces dropped",
+}
+_REPAIR = {
+    "faces_duplicate": "duplicate faces removed",
+    "faces_flipped": "faces flipped",
+}
+
+
+def load_info_lines(info: Any) -> list[str]:
+    """``cleaned: ...`` and ``repaired: ...`` lines for the non-zero counts.
+
+    Every integer field of :class:`vecslice.meshcheck.LoadInfo` is reported: the
+    known ones with a label, any other (a newer repair step) by its name.
+    """
+    if info is None:
+        return []
+    cleaned, repaired = [], []
+    for f in fields(info):
+        value = getattr(info, f.name)
+        if f.name in _LOADING or isinstance(value, bool) or not isinstance(value, int):
+            continue
+        if value:
+            label = (_CLEANUP.get(f.name) or _REPAIR.get(f.name)
+                     or f.name.replace("_", " "))
+            (cleaned if f.name in _CLEANUP else repaired).append(f"{value:,} {label}")
+    lines = []
+    if cleaned:
+        lines.append("cleaned   " + ", ".join(cleaned))
+    if repaired:
+        lines.append("repaired  " + ", ".join(repaired))
+    return lines
+
+
+def size_hint(size_mm: Any, scale_given: bool) -> str | None:
+    """A suggestion when a model's size suggests a file in other units."""
+    largest = float(max(size_mm))
+    dims = " x ".join(f"{v:.3f}" for v in size_mm)
+    if largest < 2.0:
+        hint = "" if scale_given else "; if the file is in metres, add --scale 1000"
+        return f"the model is only {dims} mm{hint}"
+    if largest > 2000.0:
+        hint = "" if scale_given else "; if the file is in µm, add --scale 0.001"
+        return f"the model is {dims} mm, larger than any printer{hint}"
+    return None
+
+
+def human_bytes(n: int) -> str:
+    """``123 B``, ``4.5 kB``, ``6.7 MB``."""
+    if n < 1000:
+        return f"{n} B"
+    if n < 1_000_000:
+        return f"{n / 1e3:.1f} kB"
+    return f"{n / 1e6:.1f} MB"
+
+
+def flush_and_exit(code: int) -> None:
+    """Flush the standard streams and end the process at once.
+
+    Used after Ctrl-C: a kernel still running in the worker thread cannot be
+    stopped, and a normal interpreter shutdown would wait for it.
+    """
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(code)

@@ -1,0 +1,531 @@
+"""Reading mesh files: STL, OBJ, PLY, OFF and 3MF to float vertices and faces.
+
+:func:`read_mesh_file` checks the path, dispatches on the suffix and turns every
+failure into a :class:`~vecslice.errors.MeshFileError` that names the file.
+STL and OBJ are parsed here (bytes and regular expressions, so no text encoding
+is guessed), 3MF by :mod:`vecslice.threemf`, PLY and OFF by trimesh from the
+file's bytes (no side files such as textures are opened). Counts a file
+announces are checked against its size and :data:`MAX_TRIANGLES` before memory is
+spent on them. :func:`trimesh_arrays` takes the arrays out of a
+``trimesh.Trimesh`` or ``trimesh.Scene``. trimesh is imported only when it is
+used, so ``import vecslice`` does not import it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import io
+import logging
+import os
+import re
+import stat
+import struct
+import sys
+import threading
+import warnings
+from collections.abc import Callable, Iterator
+from itertools import islice
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vecslice.errors import MeshFileError, VecsliceError
+
+if TYPE_CHECKING:
+    import trimesh
+
+__all__ = ["MAX_TRIANGLES", "SUPPORTED_EXTENSIONS", "read_mesh_file", "trimesh_arrays"]
+
+SUPPORTED_EXTENSIONS = ("3mf", "obj", "off", "ply", "stl")
+"""File types :func:`read_mesh_file` reads (case-insensitive suffixes)."""
+
+MAX_TRIANGLES = 100_000_000
+"""Most triangles a file may hold or announce (3MF: after expanding components).
+
+A file above it is refused before its arrays are made (they would take more than
+5 GB); the largest real print jobs are around a tenth of it.
+"""
+
+Arrays = tuple[NDArray[np.float64], NDArray[np.int64]]
+
+
+# --------------------------------------------------------------------------
+# dispatch
+# --------------------------------------------------------------------------
+
+
+def _check_path(path: Path) -> int:
+    """Size of the regular file ``path``; a clear error for anything else."""
+    try:
+        st = os.stat(path)  # follows symbolic links
+    except FileNotFoundError:
+        if os.path.islink(path):
+            raise MeshFileError(
+                f"'{path}' is a broken symbolic link: its target "
+                f"'{os.readlink(path)}' does not exist"
+            ) from None
+        raise MeshFileError(f"mesh file not found: '{path}'") from None
+    except ValueError as exc:  # an embedded NUL byte
+        raise MeshFileError(f"cannot open {str(path)!r}: {exc}") from None
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise MeshFileError(
+                f"'{path}' is a symbolic link loop (too many levels of symbolic "
+                "links)"
+            ) from None
+        raise MeshFileError(f"cannot open '{path}': {exc.strerror}") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise MeshFileError(f"'{path}' is a directory, not a mesh file")
+    if not stat.S_ISREG(st.st_mode):
+        raise MeshFileError(f"'{path}' is not a regular file (a device or pipe?)")
+    return int(st.st_size)
+
+
+class _ThreadFilter(logging.Filter):
+    """Drops the records one thread logs (the one reading a file)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.thread = threading.get_ident()
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return record.thread != self.thread
+
+
+@contextlib.contextmanager
+def _quiet() -> Iterator[None]:
+    """Silence trimesh's logger and numpy's floating-point warnings while reading.
+
+    Only records logged by this thread are dropped, numpy's error state is local
+    to the thread, and warning filters are restored on exit: a file that loads
+    prints nothing, and nothing outside the read is changed.
+    """
+    logger = logging.getLogger("trimesh")
+    quiet = _ThreadFilter()
+    logger.addFilter(quiet)
+    try:
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore", RuntimeWarning)
+            warnings.simplefilter("ignore", DeprecationWarning)
+            yield
+    finally:
+        logger.removeFilter(quiet)
+
+
+def read_mesh_file(path: Path) -> Arrays:
+    """Float vertices and int64 faces of the mesh file ``path``.
+
+    Vertices are in file units, except for 3MF, whose ``unit`` attribute is
+    applied (millimetres). Faces index the vertices (checked here).
+
+    Raises :class:`MeshFileError` for anything that is not a readable mesh file:
+    a missing path, a symbolic link loop, a directory, an unsupported suffix, an
+    empty, truncated, corrupt or oversized file, or one without triangles.
+    """
+    size = _check_path(path)
+    ext = path.suffix.lower().lstrip(".")
+    if ext not in SUPPORTED_EXTENSIONS:
+        raise MeshFileError(
+            f"'{path}': unsupported mesh file type '{path.suffix}'; expected one of "
+            + ", ".join("." + e for e in SUPPORTED_EXTENSIONS)
+        )
+    if size == 0:
+        raise MeshFileError(f"'{path}' is empty (0 bytes)")
+    reader = _READERS[ext]
+    try:
+        with _quiet():
+            v, f = reader(path, size)
+    except VecsliceError:
+        raise
+    except MemoryError:
+        raise MeshFileError(
+            f"cannot read '{path}' as {ext.upper()}: ran out of memory (the file "
+            "announces more data than fits)"
+        ) from None
+    except Exception as exc:  # a parser's failure on a damaged file, whatever it is
+        raise MeshFileError(
+            f"cannot read '{path}' as {ext.upper()}: {type(exc).__name__}: {exc}"
+        ) from exc
+    if f.shape[0] == 0:
+        raise MeshFileError(f"'{path}' holds no triangles")
+    if f.shape[0] > MAX_TRIANGLES:
+        raise _too_many(path, f.shape[0])
+    bad = np.flatnonzero(((f < 0) | (f >= v.shape[0])).any(axis=1))
+    if bad.size:
+        i = int(bad[0])
+        j = int(np.flatnonzero((f[i] < 0) | (f[i] >= v.shape[0]))[0])
+        raise MeshFileError(
+            f"'{path}' is corrupt: face {i} refers to vertex {int(f[i, j])}, but "
+            f"the file has {v.shape[0]} vertices"
+        )
+    return v, f
+
+
+def _too_many(path: Path, n: int, what: str = "triangles") -> MeshFileError:
+    if what == "vertices":
+        limit = f"{3 * MAX_TRIANGLES:,} vertices (3 x vecslice.meshfile.MAX_TRIANGLES)"
+    else:
+        limit = f"{MAX_TRIANGLES:,} triangles (vecslice.meshfile.MAX_TRIANGLES)"
+    return MeshFileError(f"'{path}' announces {n:,} {what}; vecslice reads at most "
+                         f"{limit}")
+
+
+# --------------------------------------------------------------------------
+# STL
+# --------------------------------------------------------------------------
+
+_STL_RECORD = np.dtype(
+    [("normal", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")]
+)
+_STL_VERTEX = re.compile(rb"vertex[ \t\r\n]+(\S+)[ \t\r\n]+(\S+)[ \t\r\n]+(\S+)")
+_STL_LOOP = re.compile(rb"outer[ \t]+loop")
+_TEXT = re.compile(rb"[^\t\n\r\x20-\x7e]")
+
+
+def _stl_hint(data: bytes) -> str:
+    """Why bytes are no STL, guessed from the first 512."""
+    size = len(data)
+    if not _TEXT.search(data[:512]):
+        return " (ASCII STL without a complete 'solid ... endsolid' block: truncated?)"
+    if size < 84:
+        return f" (binary STL needs an 84-byte header; the file has {size} bytes)"
+    n = struct.unpack_from("<I", data, 80)[0]
+    return (f" (binary STL header announces {n} triangles = {84 + 50 * n} bytes; "
+            f"the file has {size} bytes: truncated or corrupt)")
+
+
+def _read_stl(path: Path, size: int) -> Arrays:
+    """Binary STL if the size matches the header's count, else ASCII ``solid``."""
+    with open(path, "rb") as fh:
+        head = fh.read(84)
+        n = struct.unpack_from("<I", head, 80)[0] if len(head) == 84 else -1
+        if n >= 0 and size == 84 + 50 * n:
+            if n > MAX_TRIANGLES:
+                raise _too_many(path, n)
+            rec = np.frombuffer(fh.read(), dtype=_STL_RECORD, count=n)
+            v = rec["v"].reshape(-1, 3).astype(np.float64)
+            return v, np.arange(3 * n, dtype=np.int64).reshape(-1, 3)
+        fh.seek(0)
+        data = fh.read()
+    if data.lstrip()[:5].lower() != b"solid":
+        raise MeshFileError(f"'{path}' holds no triangles{_stl_hint(data)}")
+    return _read_stl_ascii(path, data)
+
+
+def _read_stl_ascii(path: Path, data: bytes) -> Arrays:
+    # keywords in any case (some CAD writes SOLID ... ENDSOLID); skip the name
+    body = data[data.find(b"\n") + 1:].lower() if b"\n" in data else b""
+    tokens = _STL_VERTEX.findall(body)
+    n_loops = len(_STL_LOOP.findall(body))
+    if not tokens or body.rfind(b"endsolid") < body.rfind(b"vertex"):
+        raise MeshFileError(f"'{path}' holds no triangles{_stl_hint(data)}")
+    if len(tokens) != 3 * n_loops:
+        raise MeshFileError(
+            f"'{path}' is corrupt: ASCII STL facets must have 3 vertices each; got "
+            f"{len(tokens)} vertices in {n_loops} facets"
+        )
+    v = _floats(path, tokens, "vertex")
+    return v, np.arange(v.shape[0], dtype=np.int64).reshape(-1, 3)
+
+
+def _floats(
+    path: Path, rows: list[tuple[bytes, ...]], what: str
+) -> NDArray[np.float64]:
+    """(N, 3) float64 from tuples of byte strings; names the first bad number."""
+    try:
+        return np.array(rows, dtype=np.bytes_).reshape(-1, 3).astype(np.float64)
+    except ValueError:
+        for k, row in enumerate(rows):
+            for tok in row:
+                try:
+                    float(tok)
+                except ValueError:
+                    raise MeshFileError(
+                        f"'{path}' is corrupt: {what} {k + 1} has "
+                        f"{tok.decode('latin-1')!r} where a number should be"
+                    ) from None
+        raise
+
+
+# --------------------------------------------------------------------------
+# OBJ
+# --------------------------------------------------------------------------
+
+_OBJ_V = re.compile(rb"^[ \t]*v[ \t]+([^\s#]+[ \t]+[^\s#]+[ \t]+[^\s#]+)", re.M)
+_OBJ_V_LINE = re.compile(rb"^[ \t]*v[ \t]", re.M)
+_OBJ_F = re.compile(rb"^[ \t]*f[ \t]+([^\r\n#]*)", re.M)
+_OBJ_SLASH = re.compile(rb"/[^ \t\n]*")
+_INT = re.compile(rb"[+-]?\d{1,18}")
+
+
+def _numbers(text: bytes | str, dtype: type, n: int) -> NDArray[Any] | None:
+    """The whitespace-separated numbers of ``text``; None unless exactly ``n``."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)  # unparsed text
+        try:
+            a = np.fromstring(text, dtype=dtype, sep=" ")
+        except (ValueError, DeprecationWarning):
+            return None
+    return a if a.shape[0] == n else None
+
+
+def _line_of(data: bytes, offset: int) -> int:
+    return data.count(b"\n", 0, offset) + 1
+
+
+def _obj_face(data: bytes, k: int) -> str:
+    """'face k+1 (line L)' for the k-th face line of an OBJ file."""
+    m = next(islice(_OBJ_F.finditer(data), k, None))
+    return f"face {k + 1} (line {_line_of(data, m.start())})"
+
+
+def _read_obj(path: Path, size: int) -> Arrays:
+    """Wavefront OBJ: ``v`` and ``f`` lines; polygons become triangle fans.
+
+    Vertex indices are 1-based; negative ones count back from the last vertex
+    defined before the face. Everything else (normals, texture coordinates,
+    groups, materials) is ignored. Whole-file regular expressions and numpy
+    parsing: no loop over lines in Python.
+    """
+    data = path.read_bytes()
+    if b"\\\n" in data or b"\\\r\n" in data:  # line continuations
+        data = data.replace(b"\\\r\n", b" ").replace(b"\\\n", b" ")
+    rows = _OBJ_V.findall(data)
+    if len(rows) != len(_OBJ_V_LINE.findall(data)):
+        good = {m.start() for m in _OBJ_V.finditer(data)}
+        at = next(m.start() for m in _OBJ_V_LINE.finditer(data)
+                  if m.start() not in good)
+        raise MeshFileError(
+            f"'{path}' is corrupt: line {_line_of(data, at)} defines a vertex "
+            "without three coordinates"
+        )
+    n_v = len(rows)
+    v = _numbers(b" ".join(rows), np.float64, 3 * n_v)
+    if v is None:  # slow path: names the bad number
+        v = _floats(path, [tuple(r.split()) for r in rows], "vertex")
+    v = v.reshape(-1, 3)
+    bodies = _OBJ_F.findall(data)
+    if not bodies:
+        return v, np.empty((0, 3), dtype=np.int64)
+    if len(bodies) > MAX_TRIANGLES:
+        raise _too_many(path, len(bodies), "faces")
+    body = b"\n".join(bodies)
+    if b"/" in body:
+        body = _OBJ_SLASH.sub(b"", body)
+    # tokens per face line: a token starts where a non-blank follows a blank
+    c = np.frombuffer(body, dtype=np.uint8)
+    blank = (c == 32) | (c == 9) | (c == 10) | (c == 13)
+    start = ~blank & np.concatenate([[True], blank[:-1]])
+    counts = np.bincount(np.cumsum(c == 10)[start], minlength=len(bodies))
+    short = np.flatnonzero(counts < 3)
+    if short.size:
+        k = int(short[0])
+        raise MeshFileError(f"'{path}' is corrupt: {_obj_face(data, k)} has "
+                            f"{counts[k]} vertices; a face needs at least 3")
+    idx = _numbers(body, np.int64, int(counts.sum()))
+    face_of = np.repeat(np.arange(len(bodies)), counts)
+    if idx is None:
+        toks = body.split()
+        k = next(i for i, t in enumerate(toks) if not _INT.fullmatch(t))
+        raise MeshFileError(
+            f"'{path}' is corrupt: {_obj_face(data, int(face_of[k]))} has vertex "
+            f"index {toks[k].decode('latin-1')!r}; expected an integer")
+    res = idx - 1
+    neg = idx < 0
+    if neg.any():  # relative: vertices defined before the face line
+        v_at = np.array([m.start() for m in _OBJ_V_LINE.finditer(data)], np.int64)
+        f_at = np.array([m.start() for m in _OBJ_F.finditer(data)], np.int64)
+        before = np.searchsorted(v_at, f_at)
+        res[neg] = before[face_of[neg]] + idx[neg]
+    bad = np.flatnonzero((idx == 0) | (res < 0) | (res >= n_v))
+    if bad.size:
+        k = int(bad[0])
+        i, face = int(idx[k]), int(face_of[k])
+        if i == 0:
+            why = "OBJ vertex indices start at 1 (negative ones count back)"
+        elif i < 0:
+            why = f"only {before[face]} vertices are defined before it"
+        else:
+            why = f"the file has {n_v} vertices"
+        raise MeshFileError(f"'{path}' is corrupt: {_obj_face(data, face)} refers "
+                            f"to vertex {i}; {why}")
+    # fan: face with corners c0..c(k-1) -> (c0, cj, cj+1) for j = 1 .. k-2
+    first = np.cumsum(counts) - counts
+    n_tri = counts - 2
+    tri_face = np.repeat(np.arange(len(bodies)), n_tri)
+    j = np.arange(tri_face.shape[0]) - np.repeat(np.cumsum(n_tri) - n_tri, n_tri)
+    base = first[tri_face]
+    f = np.stack([res[base], res[base + j + 1], res[base + j + 2]], axis=1)
+    return v, f
+
+
+# --------------------------------------------------------------------------
+# PLY and OFF (parsed by trimesh after a look at the header)
+# --------------------------------------------------------------------------
+
+_PLY_SIZES = {
+    "char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2,
+    "int16": 2, "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4,
+    "float": 4, "float32": 4, "double": 8, "float64": 8,
+}
+_PLY_FACE_NAMES = ("vertex_indices", "vertex_index")
+
+
+def _ply_header(path: Path, data: bytes) -> bytes:
+    """Check a PLY header against the file's size; returns the bytes to parse.
+
+    A face element with one list property under another name than
+    ``vertex_indices``/``vertex_index`` gets that name, so it loads.
+    """
+    end = re.search(rb"end_header[ \t]*\r?\n", data[: 1 << 20])
+    if not data.startswith(b"ply") or end is None:
+        raise MeshFileError(
+            f"'{path}' is not a PLY file: no 'ply ... end_header' header")
+    lines = data[: end.end()].decode("latin-1").splitlines()
+    fmt = next((ln.split() for ln in lines if ln.startswith("format")), ["", ""])
+    binary = fmt[1].startswith("binary")
+    need, elements = 0, []
+    for ln in lines:
+        w = ln.split()
+        if w[:1] == ["element"] and len(w) == 3:
+            if not w[2].isdigit():
+                raise MeshFileError(f"'{path}' is corrupt: PLY header line {ln!r}")
+            elements.append([w[1], int(w[2]), 0, []])
+        elif w[:1] == ["property"] and elements and len(w) >= 3:
+            el = elements[-1]
+            is_list = w[1] == "list" and len(w) == 5
+            # a list needs at least its count; a scalar its own size
+            size = _PLY_SIZES.get(w[2] if is_list else w[1], 1)
+            el[2] += size if binary else 2
+            if is_list:
+                el[3].append(w[4])
+    for name, count, per_item, _ in elements:
+        if name == "vertex" and count > 3 * MAX_TRIANGLES:
+            raise _too_many(path, count, "vertices")
+        if name == "face" and count > MAX_TRIANGLES:
+            raise _too_many(path, count, "faces")
+        need += count * per_item
+    have = len(data) - end.end()
+    if need > have:
+        raise MeshFileError(
+            f"'{path}' is truncated or corrupt: its PLY header announces "
+            + " and ".join(f"{e[1]:,} '{e[0]}'" for e in elements)
+            + " elements"
+            + f" (at least {need:,} bytes), but {have:,} bytes follow the header"
+        )
+    face = next((e for e in elements if e[0] == "face"), None)
+    if face is None or face[1] == 0 or any(n in face[3] for n in _PLY_FACE_NAMES):
+        return data
+    if len(face[3]) != 1:
+        raise MeshFileError(
+            f"'{path}': the PLY face element must have one list property of vertex "
+            f"indices; got list properties {face[3]}"
+        )
+    old = face[3][0].encode()
+    header = re.sub(rb"(property[ \t]+list[ \t]+\S+[ \t]+\S+[ \t]+)" + re.escape(old)
+                    + rb"([ \t]*\r?\n)", rb"\1vertex_indices\2", data[: end.end()])
+    return header + data[end.end():]
+
+
+_OFF_COUNTS = re.compile(rb"\A\s*[A-Z]*OFF\s+(?:#[^\n]*\n\s*)*(\d+)\s+(\d+)")
+
+
+def _off_header(path: Path, data: bytes) -> bytes:
+    """Refuse an OFF header whose counts cannot fit in the file."""
+    m = _OFF_COUNTS.match(data)
+    if m is not None:
+        nv, nf = int(m.group(1)), int(m.group(2))
+        if nf > MAX_TRIANGLES:
+            raise _too_many(path, nf, "faces")
+        need = 6 * nv + 8 * nf  # "0 0 0\n" per vertex, "3 0 1 2\n" per face
+        if need > len(data):
+            raise MeshFileError(
+                f"'{path}' is truncated or corrupt: its OFF header announces "
+                f"{nv:,} vertices and {nf:,} faces (at least {need:,} bytes), but "
+                f"the file has {len(data):,} bytes"
+            )
+    return data
+
+
+def _read_with_trimesh(ext: str, check: Callable[[Path, bytes], bytes]) -> Callable[
+        [Path, int], Arrays]:
+    def read(path: Path, size: int) -> Arrays:
+        data = check(path, path.read_bytes())
+        import trimesh
+
+        # from bytes: trimesh opens no side files (textures, materials)
+        loaded = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
+        arrays = trimesh_arrays(loaded)
+        if arrays is None:  # a point cloud or a path
+            return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
+        v, f, _ = arrays
+        return v, np.asarray(f, dtype=np.int64).reshape(-1, 3)
+
+    return read
+
+
+def _read_3mf(path: Path, size: int) -> Arrays:
+    from vecslice.threemf import read_3mf
+
+    return read_3mf(path, size)
+
+
+_READERS: dict[str, Callable[[Path, int], Arrays]] = {
+    "stl": _read_stl,
+    "obj": _read_obj,
+    "ply": _read_with_trimesh("ply", _ply_header),
+    "off": _read_with_trimesh("off", _off_header),
+    "3mf": _read_3mf,
+}
+
+
+# --------------------------------------------------------------------------
+# trimesh objects
+# --------------------------------------------------------------------------
+
+
+def _scene_arrays(scene: trimesh.Scene) -> tuple[NDArray[np.float64], NDArray[Any]]:
+    """Vertices and faces of every Trimesh instance of ``scene``, transforms applied."""
+    import trimesh
+
+    verts: list[NDArray[np.float64]] = []
+    faces: list[NDArray[Any]] = []
+    base = 0
+    for node in scene.graph.nodes_geometry:  # one per placed instance, not per face
+        transform, name = scene.graph[node]
+        geom = scene.geometry.get(name)
+        if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
+            continue
+        v = np.asarray(geom.vertices, dtype=np.float64)
+        t = np.asarray(transform, dtype=np.float64)
+        v = v @ t[:3, :3].T + t[:3, 3]
+        f = np.asarray(geom.faces, dtype=np.int64)
+        if np.linalg.det(t[:3, :3]) < 0:  # a mirror turns the winding inside out
+            f = f[:, ::-1]
+        verts.append(v)
+        faces.append(f + base)
+        base += v.shape[0]
+    if not faces:
+        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
+    return np.concatenate(verts), np.concatenate(faces)
+
+
+def trimesh_arrays(obj: object) -> tuple[NDArray[np.float64], NDArray[Any], str] | None:
+    """Vertices, faces and a source name of a trimesh object; None for other types.
+
+    A trimesh object exists only if trimesh was imported already, so this never
+    imports it.
+    """
+    trimesh = sys.modules.get("trimesh")
+    if trimesh is None:
+        return None
+    if isinstance(obj, trimesh.Trimesh):
+        v = np.asarray(obj.vertices, dtype=np.float64)
+        return v, np.asarray(obj.faces), "trimesh.Trimesh"
+    if isinstance(obj, trimesh.Scene):
+        v, f = _scene_arrays(obj)
+        return v, f, "trimesh.Scene"
+    return None
