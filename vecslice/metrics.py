@@ -20,8 +20,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vecslice._kernels.metrics import compare_rings
+from vecslice._kernels.metrics import compare_range
 from vecslice._kernels.simplify import ring_perimeters
+from vecslice._threads import chunk_bounds, run_chunks
 from vecslice._validate import check_int
 from vecslice.errors import InputTypeError, InputValueError
 from vecslice.moves import MoveStats, move_stats
@@ -146,6 +147,25 @@ class ContourErrors:
         return int((dev[~np.isnan(dev)] > limit_um).sum())
 
 
+def _compare_rings(
+    raw: NDArray[np.int64], raw_offsets: NDArray[np.int64],
+    simp: NDArray[np.int64], simp_offsets: NDArray[np.int64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+           NDArray[np.bool_]]:
+    """The kernel ``compare_rings`` on threads, same results.
+
+    Chunks of ring pairs of about equal vertex counts, each measured by the
+    kernel ``compare_range``.
+    """
+    n = raw_offsets.shape[0] - 1
+    d1, d2 = np.empty(n, dtype=np.float64), np.empty(n, dtype=np.float64)
+    area, linear = np.empty(n, dtype=np.float64), np.zeros(n, dtype=np.bool_)
+    run_chunks(lambda r0, r1: compare_range(raw, raw_offsets, simp, simp_offsets,
+                                            r0, r1, d1, d2, area, linear),
+               chunk_bounds(raw_offsets + simp_offsets))
+    return d1, d2, area, linear
+
+
 def contour_errors(raw: LayerPaths, simplified: LayerPaths) -> ContourErrors:
     """Measure simplified rings against the raw rings they came from, ring by ring.
 
@@ -202,7 +222,7 @@ def contour_errors(raw: LayerPaths, simplified: LayerPaths) -> ContourErrors:
             f"({raw.n_layers} layers, {raw.n_rings} rings); got "
             f"{simplified.n_layers} layers, {simplified.n_rings} rings"
         )
-    d1, d2, area, linear = compare_rings(
+    d1, d2, area, linear = _compare_rings(
         raw.coords, raw.ring_offsets, simplified.coords, simplified.ring_offsets
     )
     return ContourErrors(
