@@ -95,7 +95,10 @@ def run_chunks(fn: Callable[[int, int], None], bounds: NDArray[np.int64],
     try:
         work()
         for f in futures:
-            f.result()
+            # a worker that has not started (the pool is busy, e.g. with the
+            # caller itself) has nothing left to do: all chunks are handed out
+            if not f.cancel():
+                f.result()
     except BaseException:
         stop.set()
         raise

@@ -13,6 +13,7 @@ import math
 import os
 import time
 from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from difflib import get_close_matches
 from pathlib import Path
@@ -229,19 +230,24 @@ def _variant(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
 
     slice_z, print_z, thickness = schedule
     coords, offsets = _clean_closed(raw, settings, kept)
-    errors = contour_errors(
-        LayerPaths._trusted(raw.coords, raw.ring_offsets, raw.layer_offsets),
-        LayerPaths._trusted(coords, offsets, raw.layer_offsets.copy()),
-    )
-    loops = _cleaned(raw, settings, coords, offsets)
-    loops = apply_slicing_tolerance(loops, settings.slicing_tolerance)
-    parts = make_parts(loops,
-                       union_overlapping_volumes=settings.union_overlapping_volumes)
-    open_chains = raw.open.rings_per_layer() if raw.open is not None else None
-    model = SlicedModel.from_parts(parts, slice_z=slice_z, print_z=print_z,
-                                   thickness=thickness, open=loops.open,
-                                   open_chains=open_chains, stitched_gaps=stitched)
-    return model, errors
+    # the errors are measured on another thread while this one makes the parts
+    # (manifold3d's union runs on one core; the metrics kernel uses the rest)
+    with ThreadPoolExecutor(1, thread_name_prefix="vecslice-metrics") as pool:
+        errors = pool.submit(
+            contour_errors,
+            LayerPaths._trusted(raw.coords, raw.ring_offsets, raw.layer_offsets),
+            LayerPaths._trusted(coords, offsets, raw.layer_offsets.copy()),
+        )
+        loops = _cleaned(raw, settings, coords, offsets)
+        loops = apply_slicing_tolerance(loops, settings.slicing_tolerance)
+        parts = make_parts(
+            loops, union_overlapping_volumes=settings.union_overlapping_volumes)
+        open_chains = raw.open.rings_per_layer() if raw.open is not None else None
+        model = SlicedModel.from_parts(parts, slice_z=slice_z, print_z=print_z,
+                                       thickness=thickness, open=loops.open,
+                                       open_chains=open_chains,
+                                       stitched_gaps=stitched)
+        return model, errors.result()
 
 
 def _rows(prep: _Prepared, mesh_index: int, name: str,

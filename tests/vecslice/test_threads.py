@@ -55,3 +55,16 @@ def test_an_error_in_a_chunk_is_raised_and_stops_the_rest():
     with pytest.raises(ValueError, match="chunk 3"):
         run_chunks(fn, bounds, threads=2)
     assert len(done) < 999
+
+
+def test_nested_calls_from_a_pool_thread_do_not_wait_for_themselves():
+    # run_chunks inside a chunk: the pool's workers may all be busy (here with
+    # the outer call); queued workers that never started are not waited for
+    bounds = np.arange(0, 9, dtype=np.int64)
+    inner = []
+
+    def outer(r0, r1):
+        run_chunks(lambda a, b: inner.append(a), bounds, threads=2)
+
+    run_chunks(outer, np.arange(0, 4, dtype=np.int64), threads=2)
+    assert len(inner) == 3 * 8
