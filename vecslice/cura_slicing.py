@@ -32,6 +32,7 @@ from vecslice._kernels.cura_segments import (
 from vecslice._kernels.cura_stitch import connect_open_polylines
 from vecslice.errors import InputValueError
 from vecslice.paths import LayerPaths
+from vecslice.ragged import freeze
 from vecslice.slicing import _check_mesh, _check_slice_z
 
 __all__ = ["NO_COMPENSATION", "STITCH_ROUNDS", "CuraLayers", "concat_layers",
@@ -67,6 +68,12 @@ class CuraLayers:
     polygons: LayerPaths
     explicit: NDArray[np.bool_]
     stats: NDArray[np.int64] | None = None
+
+    def __post_init__(self) -> None:
+        # held immutably, like every container's arrays (see ragged.freeze)
+        object.__setattr__(self, "explicit", freeze(self.explicit))
+        if self.stats is not None:
+            object.__setattr__(self, "stats", freeze(self.stats))
 
 
 def concat_layers(a: LayerPaths, b: LayerPaths) -> LayerPaths:

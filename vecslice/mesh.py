@@ -167,8 +167,8 @@ class Mesh:
         if twins is None:
             from vecslice._kernels import topology
 
-            twins = topology.half_edge_twins(self.faces, self.vertices.shape[0])
-            twins.flags.writeable = False
+            n = self.vertices.shape[0]
+            twins = _freeze(topology.half_edge_twins(self.faces, n))
             object.__setattr__(self, "_twins", twins)
         return twins
 

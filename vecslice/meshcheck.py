@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from vecslice._kernels.vertices import clean_mesh
 from vecslice.nesting import outermost_container
+from vecslice.ragged import freeze
 
 __all__ = ["LoadInfo", "MeshReport", "build_report", "clean_arrays"]
 
@@ -419,6 +420,6 @@ def build_report(
         duplicate_faces=int(f.shape[0] - (int(group.max()) + 1 if f.size else 0)),
         zero_area_faces=zero_area_faces(v, f),
         volume=float(face_volumes(v, f).sum()),
-        bounds=np.stack([v.min(axis=0), v.max(axis=0)]),
+        bounds=freeze(np.stack([v.min(axis=0), v.max(axis=0)])),
         load_info=load_info,
     )

@@ -11,7 +11,7 @@ from vecslice._kernels.stitch import stitch_chains
 from vecslice._validate import check_int
 from vecslice.errors import InputTypeError
 from vecslice.paths import LayerPaths
-from vecslice.ragged import ragged_take
+from vecslice.ragged import freeze, ragged_take
 
 __all__ = ["Stitched", "stitch"]
 
@@ -134,7 +134,7 @@ def stitch(
     chains = lp.open if lp.open is not None else LayerPaths.empty(lp.n_layers)
     if chains.n_rings == 0:  # nothing to join (and no kernel to compile on a first run)
         out = LayerPaths._trusted(lp.coords, lp.ring_offsets, lp.layer_offsets, chains)
-        return Stitched(out, np.zeros(lp.n_layers, dtype=np.int64))
+        return Stitched(out, freeze(np.zeros(lp.n_layers, dtype=np.int64)))
     cc, cr, cl, oc, orr, ol, n_stitched = stitch_chains(
         chains.coords, chains.ring_offsets, chains.layer_offsets, gap1, gap2
     )
@@ -144,4 +144,4 @@ def stitch(
     out = LayerPaths._trusted(
         closed.coords, closed.ring_offsets, closed.layer_offsets, still_open
     )
-    return Stitched(out, n_stitched)
+    return Stitched(out, freeze(n_stitched))

@@ -94,6 +94,30 @@ def test_container_arrays_cannot_be_made_writeable(kind):
     assert names
 
 
+def _other_results():
+    """Arrays held by other results: mesh reports, stitching, Cura stages."""
+    from vecslice.cura_pipeline import cura_stages
+
+    box = vs.load_mesh(trimesh.creation.box((10, 10, 2)))
+    model = vs.slice_mesh(box)
+    loops, gaps = vs.stitch(vs.slice_contours(box, model.slice_z))
+    raw = cura_stages(box, vs.SliceSettings())["raw"]
+    return {
+        "MeshReport.bounds": vs.check_mesh(box).bounds,
+        "Stitched.gaps_stitched": gaps,
+        "Mesh twins cache": box._half_edge_twins(),
+        "CuraLayers.explicit": raw.explicit,
+        "CuraLayers.stats": raw.stats,
+    }
+
+
+@pytest.mark.parametrize("kind", sorted(_other_results()))
+def test_other_result_arrays_cannot_be_made_writeable(kind):
+    a = _other_results()[kind]
+    assert_immutable(a)
+    assert_immutable(a[:1])
+
+
 def test_mesh_faces_cannot_be_made_writeable_and_corrupted():
     """Issue 8 A6: flipping the flag and writing a bad index crashed a kernel."""
     mesh = vs.load_mesh(trimesh.creation.box((10, 10, 2)))
