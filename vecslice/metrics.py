@@ -212,6 +212,13 @@ def contour_errors(raw: LayerPaths, simplified: LayerPaths) -> ContourErrors:
     >>> err.max_deviation_um, err.area_error_um2
     (7.0, 3500.0)
     """
+    return _contour_errors(raw, simplified)
+
+
+def _contour_errors(raw: LayerPaths, simplified: LayerPaths,
+                    raw_area_um2: NDArray[np.float64] | None = None
+                    ) -> ContourErrors:
+    """:func:`contour_errors`, given the raw layers' areas (µm²) if known."""
     raw = _check_layer_paths(raw, "raw")
     simplified = _check_layer_paths(simplified, "simplified")
     if raw.n_layers != simplified.n_layers or not np.array_equal(
@@ -231,7 +238,8 @@ def contour_errors(raw: LayerPaths, simplified: LayerPaths) -> ContourErrors:
         xor_area_um2=area,
         linear=linear,
         ring_layer=raw.ring_layer(),
-        raw_area_um2=raw.layer_area2().astype(np.float64) / 2,
+        raw_area_um2=(raw.layer_area2().astype(np.float64) / 2
+                      if raw_area_um2 is None else raw_area_um2),
     )
 
 

@@ -216,13 +216,15 @@ def _prepare(source: Any, scale: float) -> _Prepared:
 
 
 def _variant(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
-             settings: SliceSettings, kept: Any = None) -> tuple[Any, Any]:
+             settings: SliceSettings, kept: Any = None,
+             raw_area_um2: Any = None) -> tuple[Any, Any]:
     """:func:`vecslice.slice_mesh`'s stages after the raw contours, and the errors.
 
     Returns ``(model, errors)``; ``model`` is what ``slice_mesh`` returns for
-    these settings (tests check it).
+    these settings (tests check it). ``raw_area_um2``: the raw layers' areas
+    (the same for every combination of a schedule), when the caller has them.
     """
-    from vecslice.metrics import contour_errors
+    from vecslice.metrics import _contour_errors
     from vecslice.parts import apply_slicing_tolerance, make_parts
     from vecslice.paths import LayerPaths
     from vecslice.pipeline import _clean_closed, _cleaned
@@ -234,9 +236,10 @@ def _variant(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
     # (manifold3d's union runs on one core; the metrics kernel uses the rest)
     with ThreadPoolExecutor(1, thread_name_prefix="vecslice-metrics") as pool:
         errors = pool.submit(
-            contour_errors,
+            _contour_errors,
             LayerPaths._trusted(raw.coords, raw.ring_offsets, raw.layer_offsets),
             LayerPaths._trusted(coords, offsets, raw.layer_offsets.copy()),
+            raw_area_um2,
         )
         loops = _cleaned(raw, settings, coords, offsets)
         loops = apply_slicing_tolerance(loops, settings.slicing_tolerance)
@@ -281,6 +284,7 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
         return [_row(mesh_index, name, i, s, None, _describe(exc)) for i, s in combos]
     prep_seconds = prep.seconds + time.perf_counter() - t
     kept: dict[int, Any] = {}  # perimeter filters, by minimum circumference
+    raw_area = None  # µm², per raw layer: shared by all combinations
     mesh_volume = mesh.volume
     for i, s in combos:
         t = time.perf_counter()
@@ -291,7 +295,10 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
                 c = s.minimum_polygon_circumference
                 if c not in kept:
                     kept[c] = _kept_loops(raw, c)
-                model, err = _variant(raw, stitched, schedule, s, kept[c])
+                if raw_area is None:
+                    raw_area = raw.layer_area2().astype(np.float64) / 2
+                model, err = _variant(raw, stitched, schedule, s, kept[c],
+                                      raw_area)
             moves = move_stats(model, speed_mm_s=speed, controller_ms=controller_ms,
                                percentiles=(1, 5, 50))
             vol = volume_error(model, mesh, _mesh_volume=mesh_volume)
