@@ -18,16 +18,18 @@ or -1 for a moved one), and both metrics use it to be fast, never to be right:
   symmetric difference for simple rings). The runs between consecutive anchored
   vertices bound pieces (``pieces``) that sum to ``raw - simp`` as cycles. A
   piece's ``∫|w|`` is ``∫ |h| dt`` along its chord when its raw chain is monotone
-  along it (split where the chain crosses the chord), else the sweep
-  (``planar.winding_area``). Pieces that may overlap are measured together by the
-  sweep; the whole ring pair is swept when too many may.
+  along it (split where the chain crosses the chord); a piece whose simplified
+  side has several edges (moved vertices) is ``∫ |h_raw - h_simp| dt`` when both
+  chains are monotone along its chord; else the sweep (``planar.winding_area``).
+  Pieces that may overlap are measured together by the sweep; the whole ring
+  pair is swept when too many may.
 
 Preconditions (the caller checks them): |coords| < 2**30; both offset arrays are
 valid and have the same number of rings.
 """
 
 import numpy as np
-from numba import prange, types
+from numba import types
 
 from ._jit import kernel
 from ._types import B1, F64, I64, I64_1D, I64_2D
@@ -57,6 +59,7 @@ from .planar import _point_segment, _to_ring, winding_area
 _W1 = types.int64[::1]
 _W2 = types.int64[:, ::1]
 _WF = types.float64[::1]
+_WB = types.boolean[::1]
 _F64_OUT = types.float64[::1]
 _B1_OUT = types.boolean[::1]
 
@@ -149,6 +152,102 @@ def _strip(dd, c0, c1):
     return np.float64(dd) * (f0 * f0 + f1 * f1) / (2.0 * (f0 + f1))
 
 
+@kernel(F64(F64, F64, F64), inline="always")
+def _strip_f(dd, c0, c1):
+    """:func:`_strip` for float heights."""
+    f0 = abs(c0)
+    f1 = abs(c1)
+    if (c0 >= 0.0 and c1 >= 0.0) or (c0 <= 0.0 and c1 <= 0.0):
+        return dd * (f0 + f1) * 0.5
+    return dd * (f0 * f0 + f1 * f1) / (2.0 * (f0 + f1))
+
+
+@kernel(F64(I64, I64, I64, I64, F64), inline="always")
+def _h_at(t0, h0, t1, h1, t):
+    """Height at ``t`` of the segment (t0, h0)-(t1, h1), t0 < t1, exact at its ends."""
+    if t == np.float64(t0):
+        return np.float64(h0)
+    if t == np.float64(t1):
+        return np.float64(h1)
+    return np.float64(h0) + np.float64(h1 - h0) * ((t - np.float64(t0))
+                                                    / np.float64(t1 - t0))
+
+
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, I64, I64, I64, I64))
+def _two_chain_area(rc, r0, n, sc, s0, m, p, q, ap, aq):
+    """``∫|w|`` of the piece raw ap..aq + simplified q..p, or -1.
+
+    -1 unless both chains are monotone along the chord s_p -> s_q. In
+    coordinates along the chord (t) and across it (h), both exact integers
+    scaled by the chord vector, each chain is then a function h(t) from t = 0
+    to t = |chord|², and the winding number is ±1 exactly between them: the
+    area is ``∫ |h_raw - h_simp| dt`` (merged breakpoints, a strip per
+    interval).
+    """
+    ax = sc[s0 + p, 0]
+    ay = sc[s0 + p, 1]
+    ex = sc[s0 + q, 0] - ax
+    ey = sc[s0 + q, 1] - ay
+    len2 = ex * ex + ey * ey
+    if len2 == 0:
+        return -1.0
+    t0 = np.int64(0)  # monotone: t never decreases along either chain
+    for kk in range(ap + 1, aq + 1):
+        k = kk if kk < n else kk - n
+        t1 = (rc[r0 + k, 0] - ax) * ex + (rc[r0 + k, 1] - ay) * ey
+        if t1 < t0:
+            return -1.0
+        t0 = t1
+    t0 = 0
+    j = p
+    while j != q:
+        j = j + 1 if j + 1 < m else 0
+        t1 = (sc[s0 + j, 0] - ax) * ex + (sc[s0 + j, 1] - ay) * ey
+        if t1 < t0:
+            return -1.0
+        t0 = t1
+    # raw segment (ra -> rb) and simplified segment (sa -> sb) under the
+    # interval (cur, nxt); rt*/rh*, st*/sh*: their ends' t and h
+    acc = 0.0
+    i = ap
+    rtb = np.int64(0)
+    rhb = np.int64(0)
+    rta = np.int64(0)
+    rha = np.int64(0)
+    j = p
+    stb = np.int64(0)
+    shb = np.int64(0)
+    sta = np.int64(0)
+    sha = np.int64(0)
+    cur = np.int64(0)
+    while cur < len2:
+        while rtb <= cur:  # next raw segment reaching beyond cur
+            rta = rtb
+            rha = rhb
+            i += 1
+            k = i if i < n else i - n
+            qx = rc[r0 + k, 0] - ax
+            qy = rc[r0 + k, 1] - ay
+            rtb = qx * ex + qy * ey
+            rhb = ex * qy - ey * qx
+        while stb <= cur:
+            sta = stb
+            sha = shb
+            j = j + 1 if j + 1 < m else 0
+            qx = sc[s0 + j, 0] - ax
+            qy = sc[s0 + j, 1] - ay
+            stb = qx * ex + qy * ey
+            shb = ex * qy - ey * qx
+        nxt = min(rtb, stb)
+        fa = np.float64(cur)
+        fb = np.float64(nxt)
+        c0 = _h_at(rta, rha, rtb, rhb, fa) - _h_at(sta, sha, stb, shb, fa)
+        c1 = _h_at(rta, rha, rtb, rhb, fb) - _h_at(sta, sha, stb, shb, fb)
+        acc += _strip_f(np.float64(nxt - cur), c0, c1)
+        cur = nxt
+    return acc / np.float64(len2)
+
+
 @kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, _W2))
 def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
     """Measure run ``t`` (simplified p..q, raw ap..aq): deviation bound, piece area.
@@ -156,7 +255,10 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
     Fills the run's records: ``_UB`` the largest distance bound of its raw
     vertices (to the simplified edges p..q) and ``_KMAX`` that vertex; ``_H`` a
     radius around the segment s_p-s_q holding the piece; the box of that
-    neighbourhood; ``_KIND`` 1 if the piece has area. Returns the piece's ``∫|w|``.
+    neighbourhood; ``_KIND`` 1 for a single monotone chord, else 2. Returns the
+    piece's ``∫|w|``, or -1 where the sweep must measure it (the caller calls
+    ``_piece_area``: a call of a kernel taking arrays from an inlined helper
+    costs reference count updates per run).
     """
     b = _NI * t
     p = wi[b + _P]
@@ -226,8 +328,7 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
         ub = hc if hc >= he else he
         kmax = kc if hc >= he else ke
         h = ub
-        area = acc / np.float64(len2) if mono else _piece_area(
-            rc, r0, n, sc, s0, m, p, q, ap, aq, e)
+        area = acc / np.float64(len2) if mono else -1.0
     else:
         ub = 0.0
         for kk in range(ap, aq + 1):
@@ -259,16 +360,15 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
             x1 = max(x1, sc[s0 + j, 0])
             y1 = max(y1, sc[s0 + j, 1])
             j = j + 1 if j + 1 < m else 0
-        area = _piece_area(rc, r0, n, sc, s0, m, p, q, ap, aq, e)
+        area = _two_chain_area(rc, r0, n, sc, s0, m, p, q, ap, aq)
     wi[b + _X0] = x0
     wi[b + _Y0] = y0
     wi[b + _X1] = x1
     wi[b + _Y1] = y1
-    wi[b + _KIND] = 0 if not area > 0.0 else (1 if single and mono else 2)
+    wi[b + _KIND] = 1 if single and mono else 2  # the caller sets 0 for no area
     wi[b + _KMAX] = kmax
     wf[_NF * t + _UB] = ub
     wf[_NF * t + _H] = h
-    wf[_NF * t + _AREA] = area
     return area
 
 
@@ -406,7 +506,14 @@ def _compare_one(rc, r0, n, sc, s0, m, anchor, wi, wf, ub, e):
         wi[b + _Q] = q
         wi[b + _AP] = anchor[p]
         wi[b + _AQ] = anchor[q] if anchor[q] > anchor[p] else anchor[q] + n
-        total += _run(rc, r0, n, sc, s0, m, wi, wf, t, e)
+        area = _run(rc, r0, n, sc, s0, m, wi, wf, t, e)
+        if area < 0.0:  # a chain folds back along the chord: the sweep
+            area = _piece_area(rc, r0, n, sc, s0, m, p, wi[b + _Q], wi[b + _AP],
+                               wi[b + _AQ], e)
+        if not area > 0.0:
+            wi[b + _KIND] = 0
+        wf[_NF * t + _AREA] = area
+        total += area
         p = q
     d1 = _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc)
     d2 = _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub)
@@ -461,9 +568,41 @@ def _compare_one(rc, r0, n, sc, s0, m, anchor, wi, wf, ub, e):
 
 
 @kernel(
+    types.void(I64_2D, I64_1D, I64_2D, I64_1D, I64, I64, _WF, _WF, _WF, _WB)
+)
+def compare_range(raw, raw_offsets, simp, simp_offsets, r0, r1, out_raw_to_simp,
+                  out_simp_to_raw, out_xor_area, out_linear):
+    """:func:`compare_rings` of rings ``r0 .. r1-1``, into the ``out_*`` arrays.
+
+    Serial: ``vecslice.metrics`` runs disjoint ranges on a few threads (the
+    kernel releases the GIL; a serial kernel compiles much faster than a
+    ``parallel=True`` one).
+    """
+    size = 1
+    for rr in range(r0, r1):
+        size = max(size, raw_offsets[rr + 1] - raw_offsets[rr]
+                   + simp_offsets[rr + 1] - simp_offsets[rr])
+    anchor = np.empty(size + 1, np.int64)
+    wi = np.empty(_NI * (size + 1), np.int64)
+    wf = np.empty(_NF * (size + 1), np.float64)
+    ub = np.empty(size + 1, np.float64)
+    e = np.empty((size + 1, 4), np.int64)
+    for rr in range(r0, r1):
+        a0 = raw_offsets[rr]
+        b0 = simp_offsets[rr]
+        d1, d2, a, lin = _compare_one(
+            raw, a0, raw_offsets[rr + 1] - a0, simp, b0,
+            simp_offsets[rr + 1] - b0, anchor, wi, wf, ub, e,
+        )
+        out_raw_to_simp[rr] = d1
+        out_simp_to_raw[rr] = d2
+        out_xor_area[rr] = a
+        out_linear[rr] = lin
+
+
+@kernel(
     types.Tuple((_F64_OUT, _F64_OUT, _F64_OUT, _B1_OUT))(I64_2D, I64_1D, I64_2D,
-                                                         I64_1D),
-    parallel=True,
+                                                         I64_1D)
 )
 def compare_rings(raw, raw_offsets, simp, simp_offsets):
     """Deviation both ways and XOR area of every (raw, simplified) ring pair.
@@ -472,44 +611,14 @@ def compare_rings(raw, raw_offsets, simp, simp_offsets):
     the largest distance (µm) from a raw vertex to the simplified ring and from a
     simplified vertex to the raw ring (NaN where the simplified ring is empty);
     ``∫ |w_raw - w_simp| dA`` in µm²; and whether the pass over the runs settled
-    the area (False: the sweep over the whole ring pair did).
+    the area (False: the sweep over the whole ring pair did). Serial; see
+    :func:`compare_range`.
     """
     n_rings = raw_offsets.shape[0] - 1
     out1 = np.empty(n_rings, np.float64)
     out2 = np.empty(n_rings, np.float64)
     area = np.empty(n_rings, np.float64)
     linear = np.zeros(n_rings, np.bool_)
-    n_all = raw.shape[0] + simp.shape[0]
-    n_chunks = min(n_rings, 64)
-    bounds = np.zeros(n_chunks + 1, np.int64)
-    r = 0
-    for c in range(1, n_chunks):
-        target = (n_all * c) // n_chunks
-        while r < n_rings and raw_offsets[r] + simp_offsets[r] < target:
-            r += 1
-        bounds[c] = r
-    bounds[n_chunks] = n_rings
-    for c in prange(n_chunks):
-        r0 = bounds[c]
-        r1 = bounds[c + 1]
-        size = 1
-        for rr in range(r0, r1):
-            size = max(size, raw_offsets[rr + 1] - raw_offsets[rr]
-                       + simp_offsets[rr + 1] - simp_offsets[rr])
-        anchor = np.empty(size + 1, np.int64)
-        wi = np.empty(_NI * (size + 1), np.int64)
-        wf = np.empty(_NF * (size + 1), np.float64)
-        ub = np.empty(size + 1, np.float64)
-        e = np.empty((size + 1, 4), np.int64)
-        for rr in range(r0, r1):
-            a0 = raw_offsets[rr]
-            b0 = simp_offsets[rr]
-            d1, d2, a, lin = _compare_one(
-                raw, a0, raw_offsets[rr + 1] - a0, simp, b0,
-                simp_offsets[rr + 1] - b0, anchor, wi, wf, ub, e,
-            )
-            out1[rr] = d1
-            out2[rr] = d2
-            area[rr] = a
-            linear[rr] = lin
+    compare_range(raw, raw_offsets, simp, simp_offsets, 0, n_rings, out1, out2,
+                  area, linear)
     return out1, out2, area, linear

@@ -1,10 +1,12 @@
 """CuraEngine-exact simplification of rings and polylines, plus ring clean-up kernels.
 
-One call processes a whole ragged array ``(coords, ring_offsets)``. Each ring is
-simplified independently into a buffer the size of the input (ring ``r`` writes at
-``ring_offsets[r]``), and the buffer is then compacted in place; rings whose
-result is empty keep a zero-length range, so output ring ``r`` still belongs to
-input ring ``r``.
+One call processes a whole ragged array ``(coords, ring_offsets)``, or a range
+of its rings (:func:`simplify_range`, which ``vecslice.simplify`` runs on a few
+threads: a serial kernel compiles several times faster than a ``parallel=True``
+one), writing the results back to back from the range's first input offset;
+rings whose result is empty keep a zero-length range, so output ring ``r`` still
+belongs to input ring ``r``. Helpers are plain kernels, not inlined: each is
+compiled once, and LLVM still inlines them.
 
 The algorithm is CuraEngine's ``Simplify::simplify`` (see ``spec/SIMPLIFY.md``):
 a min-heap of ``(importance, index)`` with stale entries re-pushed, passes until
@@ -13,9 +15,10 @@ replacement of a short edge by the intersection of its neighbouring edges.
 CuraEngine walks a ``to_delete`` array to find the nearest kept neighbours; here a
 doubly linked list over the kept vertices gives the same neighbours in O(1).
 The removals happen in exactly CuraEngine's order, with much less work: pops that
-cannot change anything are skipped, importances are recomputed only where their
-inputs changed, and the queue is a bucket queue for the usual keys (see
-``_simplify_one``).
+cannot change anything are skipped, a pass after the first looks only at the
+vertices whose entry can change anything, importances are recomputed only where
+their inputs changed (the first pass computes them in a vectorised loop), and
+the queue is a bucket queue for the usual keys (see :func:`simplify_range`).
 
 Preconditions (the caller checks them): |coords| < 2**30; ring_offsets starts at
 0, never decreases and ends at len(coords); 0 <= thresholds < 2**31; widths, where
@@ -23,13 +26,12 @@ given, satisfy |w| < 2**30.
 """
 
 import numpy as np
-from numba import prange, types
+from numba import types
 from numba.cpython.unsafe.numbers import trailing_zeros
 
 from ._jit import kernel
 from ._types import B1, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 from .geometry import (
-    dist2_from_line,
     dist2_from_segment,
     line_line_intersection,
     tdiv,
@@ -40,15 +42,15 @@ INT64_MAX = np.iinfo(np.int64).max
 INT64_MIN = np.iinfo(np.int64).min
 MIN_RES2 = 25  # CuraEngine's min_resolution (5 µm), squared
 
-# hot helpers are inlined (inline="always") and take scalars only: inlined array
-# arguments cost an atomic reference count update per array and call
 _W1 = types.int64[::1]  # writable work arrays
-# keys d*d, 0 <= d < nb, go to buckets (one bitmap over the ring's vertex
-# indices each) instead of the heap when max_deviation < _MAX_BUCKETS
+_W2 = types.int64[:, ::1]
+# keys d*d, 0 <= d < 2 * (max_deviation + 1), go to buckets (one bitmap over the
+# ring's vertex indices each) instead of the heap when
+# max_deviation < _MAX_BUCKETS
 _MAX_BUCKETS = 65
 
 
-@kernel(I64(I64, I64, I64, I64, I64, I64, I64, I64, I64), inline="always")
+@kernel(I64(I64, I64, I64, I64, I64, I64, I64, I64, I64))
 def _area_deviation(bx, by, bw, vx, vy, vw, ax, ay, aw):
     """Extrusion-area deviation of removing vertex v between b and a."""
     ab = vsize(vx - bx, vy - by)
@@ -67,8 +69,28 @@ def _area_deviation(bx, by, bw, vx, vy, vw, ax, ay, aw):
     return wd * ab
 
 
+@kernel(I64(I64, I64, I64, I64, I64, I64))
+def _dist2_line(px, py, ax, ay, bx, by):
+    """``dist2_from_line(p, a, b)``, bit for bit, with the length kept a double.
+
+    ``rint(sqrt(s))`` is integer valued and below 2**32, so vsize's conversion
+    to int64 and back to double changes nothing; a wrapped (negative) squared
+    length gives vsize's INT64_MIN.
+    """
+    sx = bx - ax
+    sy = by - ay
+    s = sx * sx + sy * sy
+    ab = np.rint(np.sqrt(np.float64(s))) if s >= 0 else np.float64(INT64_MIN)
+    if ab == 0.0:
+        d = vsize(px - ax, py - ay)
+    else:
+        area2 = (px - bx) * (py - ay) + (ax - px) * (py - by)
+        d = np.int64(np.float64(abs(area2)) / ab)
+    return d * d
+
+
 @kernel(
-    I64(B1, I64, I64, I64, I64, I64, I64, I64, I64, I64, I64, I64), inline="always"
+    I64(B1, I64, I64, I64, I64, I64, I64, I64, I64, I64, I64, I64)
 )
 def _importance(has_w, bx, by, bw, vx, vy, vw, ax, ay, aw, max_res2, max_area):
     """CuraEngine's importance of vertex v between kept neighbours b and a.
@@ -77,7 +99,7 @@ def _importance(has_w, bx, by, bw, vx, vy, vw, ax, ay, aw, max_res2, max_area):
     """
     if has_w and _area_deviation(bx, by, bw, vx, vy, vw, ax, ay, aw) > max_area:
         return INT64_MAX
-    d2 = dist2_from_line(vx, vy, bx, by, ax, ay)
+    d2 = _dist2_line(vx, vy, bx, by, ax, ay)
     lb = (bx - vx) * (bx - vx) + (by - vy) * (by - vy)
     la = (ax - vx) * (ax - vx) + (ay - vy) * (ay - vy)
     # unpredictable on noisy input: one select instead of branches
@@ -87,7 +109,7 @@ def _importance(has_w, bx, by, bw, vx, vy, vw, ax, ay, aw, max_res2, max_area):
 
 @kernel(
     types.Tuple((B1, I64, I64))(I64, I64, I64, I64, I64, I64, I64, I64, I64),
-    inline="always",
+
 )
 def _collapse(p0x, p0y, p1x, p1y, p2x, p2y, p3x, p3y, max_dev2):
     """Replace the short edge p1-p2 by the intersection X of lines p0-p1, p2-p3.
@@ -101,7 +123,7 @@ def _collapse(p0x, p0y, p1x, p1y, p2x, p2y, p3x, p3y, max_dev2):
     return ok, x, y
 
 
-@kernel(types.void(_W1, _W1, I64, I64), inline="always")
+@kernel(types.void(_W1, _W1, I64, I64))
 def _sift_down(hk, hi, pos, size):
     """Restore the heap below ``pos``; entries ordered by (key, index).
 
@@ -133,7 +155,7 @@ def _sift_down(hk, hi, pos, size):
     hi[p] = v
 
 
-@kernel(types.void(_W1, _W1, I64, I64, I64), inline="always")
+@kernel(types.void(_W1, _W1, I64, I64, I64))
 def _push(hk, hi, size, key, idx):
     """Insert (key, idx) into a heap holding ``size`` entries."""
     p = np.uint64(size)
@@ -149,30 +171,65 @@ def _push(hk, hi, size, key, idx):
     hi[p] = idx
 
 
-@kernel(I64(I64, I64), inline="always")
-def _bucket(key, nb):
-    """Bucket of a queue key: d if key == d*d with 0 <= d < nb, else -1 (heap)."""
-    if key < 0 or key >= nb * nb:
-        return -1
-    d = np.int64(np.sqrt(np.float64(key)))  # exact for these small squares
-    if d * d == key:
-        return d
+@kernel(I64(I64, I64))
+def _high_bucket(key, nb2):
+    """Bucket of a queue key not in the look-up table: d if key == d*d < nb2.
+
+    Else -1 (the heap). These are rare: stale keys above max_deviation². The
+    double square root of a perfect square below 2**52 is exact.
+    """
+    if key < nb2:
+        d = np.int64(np.sqrt(np.float64(key)))
+        if d * d == key:
+            return d
     return -1
 
 
-# Vertex flags of _simplify_one. A vertex has at most one queue entry per pass,
+@kernel(types.void(_W1, _W1, _W1, I64, I64))
+def _importance_run(px, py, imp, n, max_res2):
+    """``_importance`` (no widths) of vertices 1 .. n-2, for the first pass.
+
+    Each vertex lies between its index neighbours; the body is branch-free so
+    that the loop vectorises. Same values as ``_importance``: in the first pass
+    |coords| < 2**30, so the squared sums cannot wrap, and rint(sqrt) is an
+    integer-valued double already.
+    """
+    for i in range(1, n - 1):
+        bx = px[i - 1]
+        by = py[i - 1]
+        vx = px[i]
+        vy = py[i]
+        ax = px[i + 1]
+        ay = py[i + 1]
+        dx = ax - bx
+        dy = ay - by
+        ab = np.rint(np.sqrt(np.float64(dx * dx + dy * dy)))
+        area2 = abs((vx - ax) * (vy - by) + (bx - vx) * (vy - ay))
+        lb = (bx - vx) * (bx - vx) + (by - vy) * (by - vy)
+        la = (ax - vx) * (ax - vx) + (ay - vy) * (ay - vy)
+        d = np.int64(np.float64(area2) / max(ab, 1.0))
+        d0 = np.int64(np.rint(np.sqrt(np.float64(lb))))  # line of length 0
+        d = d0 if ab == 0.0 else d
+        d2 = d * d
+        long_edges = (d2 > MIN_RES2) & (lb > max_res2) & (la > max_res2)
+        imp[i] = INT64_MAX if long_edges else d2
+
+
+# Vertex flags of simplify_range. A vertex has at most one queue entry per pass,
 # keyed (imp[i], i), where imp[i] is its importance when the entry was made.
 _DIRTY = 1  # the inputs of its importance (it, its neighbours) changed since
 _FAILED = 2  # a removal attempt failed and its window (itself and two kept
 #              neighbours on each side) is unchanged since: a retry fails too
 _DELETED = 4
 _INHEAP = 8  # its entry is in the heap
-_POPPED = 16  # its entry of this pass is gone (popped, or passed over)
-# A kept vertex with neither _INHEAP nor _POPPED has a "side" entry: kept out
-# of the heap because popping it would change nothing (see _simplify_one).
+_CAND = 16  # listed as a candidate for the next pass
+_EPOCH = 5  # fl >> _EPOCH: the last pass in which its entry was gone (popped,
+#             or passed over); "popped" below means: in the current pass
+# A kept vertex neither in the heap nor popped has a "side" entry: kept out of
+# the heap because popping it would change nothing (see simplify_range).
 
 
-@kernel(B1(I64, I64, I64, I64, I64, I64), inline="always")
+@kernel(B1(I64, I64, I64, I64, I64, I64))
 def _tiny(x0, y0, x1, y1, x2, y2):
     """CuraEngine's small-path test for a path of exactly the minimum size.
 
@@ -186,22 +243,31 @@ def _tiny(x0, y0, x1, y1, x2, y2):
 
 
 @kernel(
-    I64(_W1, _W1, _W1, B1, I64, B1, I64, I64, I64, _W1, _W1, _W1, _W1, _W1,
-        _W1, _W1, _W1, _W1, I64)
+    types.void(I64_2D, I64_1D, I64_1D, B1, B1, I64, I64, I64, I64, I64, _W2, _W1,
+               _W1)
 )
-def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
-                  prv, nxt, fl, imp, hk, hi, tq, bits, bq, nb):
-    """Simplify the ring held in ``px[:n], py[:n]`` in place; return its new size.
+def simplify_range(coords, widths, ring_offsets, has_w, closed, max_resolution,
+                   max_deviation, max_area_deviation, r0, r1, out_coords,
+                   out_widths, out_counts):
+    """Simplify rings ``r0 .. r1-1``, writing the results back to back.
 
-    Kept vertices are compacted to the front of px/py/pw, in their original order.
-    Work arrays (length >= n): prv, nxt, fl, imp, hk, hi; tq (length >= 12);
-    bits (length >= nb * ceil(n / 64)) and bq (length 2 * nb + nb * nb, its
-    tail holding the bucket of every key below nb * nb: d where key == d * d,
-    else -1) for ``nb`` buckets (0: the heap alone).
+    The results go to ``out_coords`` (and ``out_widths`` when ``has_w``) from
+    row ``ring_offsets[r0]`` on (a result is never longer than its input, so
+    disjoint ring ranges write disjoint rows), and ring r's vertex count to
+    ``out_counts[r]``. Serial: callers run disjoint ranges on several threads
+    (the kernel releases the GIL). ``widths`` is ignored unless ``has_w``.
+
+    Each ring is copied to px/py/pw, simplified there (kept vertices compacted
+    to the front in their original order) with work arrays prv, nxt, fl, imp,
+    hk, hi, cand (length >= the ring's size), tq (12), bits (nb * ceil(n / 64))
+    and bq (2 * nb + nl * nl, its tail holding the bucket of every key below
+    nl * nl: d where key == d * d, else -1) for ``nb`` buckets (0: the heap
+    alone), nl <= nb.
 
     The priority queue pops (key, index) in increasing order. It is a bucket
     queue for the keys d*d with d < nb (importances are squared integer
-    distances, so nearly all keys <= max_dev² are such squares): bucket d is a
+    distances; nl = max_dev + 1 buckets hold every key <= max_dev², the others
+    the stale keys just above, of entries whose window changed): bucket d is a
     bitmap over the vertex indices, scanned from its lowest possibly set word;
     other keys go to a binary heap (hk, hi), and the smaller of both heads
     pops first.
@@ -223,116 +289,115 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
       which gives the value CuraEngine recomputes at every pop;
     * a stale entry (k, i) whose importance dropped to cur < k would be
       re-pushed as the smallest entry and popped next: it is handled at once;
-    * a pass whose queue starts empty removes nothing: the loop ends.
+    * a pass whose queue starts empty removes nothing: the loop ends;
+    * at the end of a pass the queue is empty, and a kept vertex can enter the
+      next pass's queue only if it is ``_DIRTY`` or its ``_FAILED`` was cleared,
+      that is if its window changed after its entry was popped (or passed
+      over) in this pass: such vertices are listed (``cand``), and the next
+      pass looks at them alone (the first pass at every vertex). "Popped in
+      this pass" is the pass number kept in the flags' high bits (``_EPOCH``).
     (In this description "heap" means the whole priority queue.)
     """
+    max_res2 = max_resolution * max_resolution
+    max_dev2 = max_deviation * max_deviation
+    max_area = max_area_deviation
+    # lut buckets: every key <= max_dev²; more buckets for the stale keys above
+    nl = max_deviation + 1 if max_deviation < _MAX_BUCKETS else 0
+    nb = 2 * nl
+    max_len = 0
+    for rr in range(r0, r1):
+        max_len = max(max_len, ring_offsets[rr + 1] - ring_offsets[rr])
+    px = np.empty(max_len, np.int64)
+    py = np.empty(max_len, np.int64)
+    pw = np.zeros(max_len, np.int64)
+    prv = np.empty(max_len, np.int64)
+    nxt = np.empty(max_len, np.int64)
+    fl = np.empty(max_len, np.int64)
+    imp = np.empty(max_len, np.int64)
+    hk = np.empty(max_len, np.int64)
+    hi = np.empty(max_len, np.int64)
+    tq = np.empty(12, np.int64)
+    cand = np.empty(max_len, np.int64)
+    bits = np.empty(nb * ((max_len + 63) >> 6), np.int64)
+    bq = np.full(2 * nb + nl * nl, -1, np.int64)
+    for d in range(nl):
+        bq[2 * nb + d * d] = d
     min_size = 3 if closed else 2
-    if n < min_size:
-        return 0
-    if n == min_size:
-        return 0 if _tiny(px[0], py[0], px[1], py[1], px[n - 1], py[n - 1]) else n
-    for i in range(n):
-        prv[i] = i - 1
-        nxt[i] = i + 1
-        fl[i] = _DIRTY
-    prv[0] = n - 1
-    nxt[n - 1] = 0
-    nw = (n + 63) >> 6
-    lut = 2 * nb  # bq[lut + key]: d if key == d*d (d < nb), else -1
-    nb2 = nb * nb
-    for q in range(nb * nw):
-        bits[q] = 0
-    for d in range(nb):
-        bq[d] = 0  # entries in bucket d
-        bq[nb + d] = nw  # no set bit in bucket d below this word
-    removed = -1
-    # every pass that continues removes >= 1 vertex, so at most n passes
-    while n - removed > min_size and removed != 0:
-        removed = 0
-        size = 0  # heap entries
-        nbk = 0  # bucket entries
-        dmin = nb  # no entry in a bucket below dmin
-        for i in range(n):
-            f = fl[i]
-            if f & _DELETED:
-                continue
-            if f & _DIRTY:
-                if not closed and (i == 0 or i == n - 1):
-                    imp[i] = INT64_MAX
-                else:
-                    b = prv[i]
-                    a = nxt[i]
-                    imp[i] = _importance(has_w, px[b], py[b], pw[b], px[i], py[i],
-                                         pw[i], px[a], py[a], pw[a], max_res2,
-                                         max_area)
-                f ^= _DIRTY
-            k = imp[i]
-            if k <= max_dev2 and (f & _FAILED) == 0:
-                d = bq[lut + k] if 0 <= k < nb2 else -1
-                if d >= 0:
-                    w = i >> 6
-                    bits[d * nw + w] |= np.int64(1) << (i & 63)
-                    bq[d] += 1
-                    bq[nb + d] = min(bq[nb + d], w)
-                    dmin = min(dmin, d)
-                    nbk += 1
-                else:
-                    hk[size] = k
-                    hi[size] = i
-                    size += 1
-                f = (f & ~_POPPED) | _INHEAP
+    pos = ring_offsets[r0]
+    for rr in range(r0, r1):
+        start = ring_offsets[rr]
+        n = ring_offsets[rr + 1] - start
+        for t in range(n):
+            px[t] = coords[start + t, 0]
+            py[t] = coords[start + t, 1]
+        if has_w:
+            for t in range(n):
+                pw[t] = widths[start + t]
+        if n <= min_size:
+            m = n
+            if n < min_size or _tiny(px[0], py[0], px[1], py[1], px[n - 1],
+                                     py[n - 1]):
+                m = 0
+        else:
+            for i in range(n):
+                prv[i] = i - 1
+                nxt[i] = i + 1
+            prv[0] = n - 1
+            nxt[n - 1] = 0
+            if has_w:
+                for i in range(n):
+                    fl[i] = _DIRTY
             else:
-                f &= ~(_INHEAP | _POPPED)
-            fl[i] = f
-        for pos in range(size // 2 - 1, -1, -1):
-            _sift_down(hk, hi, pos, size)
-        hwk = INT64_MIN
-        hwi = -1
-        # an entry is re-pushed only when its importance changed, which needs a
-        # removal in between, so this ends
-        while size + nbk > 0 and n - removed > min_size:
-            from_bucket = False
-            if nbk > 0:
-                while bq[dmin] == 0:
-                    dmin += 1
-                base = dmin * nw
-                w = bq[nb + dmin]
-                while bits[base + w] == 0:
-                    w += 1
-                bq[nb + dmin] = w
-                k = dmin * dmin
-                i = (w << 6) + trailing_zeros(bits[base + w])
-                from_bucket = size == 0 or k < hk[0] or (k == hk[0] and i < hi[0])
-            if from_bucket:
-                bits[base + w] &= ~(np.int64(1) << (i & 63))
-                bq[dmin] -= 1
-                nbk -= 1
-            else:
-                k = hk[0]
-                i = hi[0]
-                size -= 1
-                if size > 0:
-                    hk[0] = hk[size]
-                    hi[0] = hi[size]
-                    _sift_down(hk, hi, 0, size)
-            if k > hwk or (k == hwk and i > hwi):
-                hwk = k
-                hwi = i
-            f = fl[i]
-            b = prv[i]
-            a = nxt[i]
-            if f & _DIRTY:
-                if not closed and (i == 0 or i == n - 1):
-                    cur = INT64_MAX
-                else:
-                    cur = _importance(has_w, px[b], py[b], pw[b], px[i], py[i],
-                                      pw[i], px[a], py[a], pw[a], max_res2,
-                                      max_area)
-                imp[i] = cur
-                f ^= _DIRTY
-                if cur > k:  # re-push; dirty implies not _FAILED
-                    if cur <= max_dev2:
-                        d = bq[lut + cur] if 0 <= cur < nb2 else -1
+                _importance_run(px, py, imp, n, max_res2)
+                for i in range(n):
+                    fl[i] = 0
+                fl[0] = _DIRTY
+                fl[n - 1] = _DIRTY
+            nw = (n + 63) >> 6
+            lut = 2 * nb  # bq[lut + key]: d if key == d*d (d < nl), else -1
+            nb2 = nb * nb
+            nl2 = nl * nl
+            for q in range(nb * nw):
+                bits[q] = 0
+            for d in range(nb):
+                bq[d] = 0  # entries in bucket d
+                bq[nb + d] = nw  # no set bit in bucket d below this word
+            nc = n  # candidates of the first pass: every vertex
+            for i in range(n):
+                cand[i] = i
+            removed = -1
+            pas = 0
+            # every pass that continues removes >= 1 vertex, so at most n passes
+            while n - removed > min_size and removed != 0:
+                removed = 0
+                pas += 1
+                popped = pas << _EPOCH
+                size = 0  # heap entries
+                nbk = 0  # bucket entries
+                dmin = nb  # no entry in a bucket below dmin
+                # only candidates can have an entry that changes anything: every other
+                # kept vertex has an unchanged importance, and it is > max_dev² or a
+                # removal is known to fail
+                for c in range(nc):
+                    i = cand[c]
+                    f = fl[i] & ~_CAND
+                    if f & _DELETED:
+                        fl[i] = f
+                        continue
+                    if f & _DIRTY:
+                        if not closed and (i == 0 or i == n - 1):
+                            imp[i] = INT64_MAX
+                        else:
+                            b = prv[i]
+                            a = nxt[i]
+                            imp[i] = _importance(
+                                has_w, px[b], py[b], pw[b], px[i], py[i], pw[i],
+                                px[a], py[a], pw[a], max_res2, max_area)
+                        f ^= _DIRTY
+                    k = imp[i]
+                    if k <= max_dev2 and (f & _FAILED) == 0:
+                        d = (bq[lut + k] if 0 <= k < nl2
+                             else _high_bucket(k, nb2))
                         if d >= 0:
                             w = i >> 6
                             bits[d * nw + w] |= np.int64(1) << (i & 63)
@@ -341,194 +406,196 @@ def _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2, max_area,
                             dmin = min(dmin, d)
                             nbk += 1
                         else:
-                            _push(hk, hi, size, cur, i)
+                            hk[size] = k
+                            hi[size] = i
                             size += 1
-                    else:  # would be skipped unless its inputs change again
-                        f ^= _INHEAP
+                        f |= _INHEAP
                     fl[i] = f
-                    continue
-                # cur < k: the re-pushed entry (cur, i) would be the smallest
-                # (all others are > (k, i)), popped at once: go on with it
-                k = cur
-            f = (f ^ _INHEAP) | _POPPED
-            if k > max_dev2:
-                fl[i] = f
-                continue
-            # CuraEngine's remove(i): moved = -1 (nothing moves), b or a
-            moved = -2
-            if k <= MIN_RES2:
-                moved = -1
-            else:
-                vx = px[i]
-                vy = py[i]
-                lb = (vx - px[b]) * (vx - px[b]) + (vy - py[b]) * (vy - py[b])
-                la = (vx - px[a]) * (vx - px[a]) + (vy - py[a]) * (vy - py[a])
-                if lb <= max_res2 and la <= max_res2:
-                    moved = -1
-                elif lb <= la:  # the edge before i is the short one (a tie too)
-                    if closed or b != 0:
-                        bb = prv[b]
-                        ok, x, y = _collapse(px[bb], py[bb], px[b], py[b], vx, vy,
-                                             px[a], py[a], max_dev2)
-                        if ok:
-                            moved = b
-                elif closed or a != n - 1:
-                    aa = nxt[a]
-                    ok, x, y = _collapse(px[b], py[b], vx, vy, px[a], py[a],
-                                         px[aa], py[aa], max_dev2)
-                    if ok:
-                        moved = a
-            if moved == -2:
-                fl[i] = f | _FAILED
-                continue
-            fl[i] = f | _DELETED
-            removed += 1
-            nxt[b] = a
-            prv[a] = b
-            # vertices whose window changed (tq[2q]) and whether their
-            # importance inputs did (tq[2q + 1])
-            tq[0] = b
-            tq[1] = _DIRTY
-            tq[2] = a
-            tq[3] = _DIRTY
-            tq[4] = prv[b]
-            tq[5] = 0
-            tq[6] = nxt[a]
-            tq[7] = 0
-            nt = 4
-            if moved >= 0:
-                if has_w:
-                    pw[moved] = tdiv(pw[b] + pw[a], 2)
-                px[moved] = x
-                py[moved] = y
-                nt = 5
-                if moved == b:
-                    tq[5] = _DIRTY
-                    tq[8] = prv[tq[4]]
-                else:
-                    tq[7] = _DIRTY
-                    tq[8] = nxt[tq[6]]
-                tq[9] = 0
-            for q in range(nt):
-                j = tq[2 * q]
-                f = (fl[j] & ~_FAILED) | tq[2 * q + 1]
-                if (f & (_INHEAP | _POPPED | _DELETED)) == 0:  # side entry
-                    kj = imp[j]
-                    if kj > hwk or (kj == hwk and j > hwi):  # not passed yet
-                        if (f & _DIRTY) != 0 or kj <= max_dev2:
-                            d = bq[lut + kj] if 0 <= kj < nb2 else -1
-                            if d >= 0:
-                                w = j >> 6
-                                bits[d * nw + w] |= np.int64(1) << (j & 63)
-                                bq[d] += 1
-                                bq[nb + d] = min(bq[nb + d], w)
-                                dmin = min(dmin, d)
-                                nbk += 1
-                            else:
-                                _push(hk, hi, size, kj, j)
-                                size += 1
-                            f |= _INHEAP
+                nc = 0
+                for h in range(size // 2 - 1, -1, -1):
+                    _sift_down(hk, hi, h, size)
+                hwk = INT64_MIN
+                hwi = -1
+                # an entry is re-pushed only when its importance changed, which needs a
+                # removal in between, so this ends
+                while size + nbk > 0 and n - removed > min_size:
+                    from_bucket = False
+                    if nbk > 0:
+                        while bq[dmin] == 0:
+                            dmin += 1
+                        base = dmin * nw
+                        w = bq[nb + dmin]
+                        while bits[base + w] == 0:
+                            w += 1
+                        bq[nb + dmin] = w
+                        k = dmin * dmin
+                        i = (w << 6) + trailing_zeros(bits[base + w])
+                        from_bucket = (size == 0 or k < hk[0]
+                                       or (k == hk[0] and i < hi[0]))
+                    if from_bucket:
+                        bits[base + w] &= ~(np.int64(1) << (i & 63))
+                        bq[dmin] -= 1
+                        nbk -= 1
                     else:
-                        f |= _POPPED
-                fl[j] = f
-    m = 0
-    for i in range(n):
-        if (fl[i] & _DELETED) == 0:
-            px[m] = px[i]
-            py[m] = py[i]
-            pw[m] = pw[i]
-            m += 1
-    if m < min_size:
-        return 0
-    if m == min_size and _tiny(px[0], py[0], px[1], py[1], px[m - 1], py[m - 1]):
-        return 0
-    return m
+                        k = hk[0]
+                        i = hi[0]
+                        size -= 1
+                        if size > 0:
+                            hk[0] = hk[size]
+                            hi[0] = hi[size]
+                            _sift_down(hk, hi, 0, size)
+                    if k > hwk or (k == hwk and i > hwi):
+                        hwk = k
+                        hwi = i
+                    f = fl[i]
+                    b = prv[i]
+                    a = nxt[i]
+                    if f & _DIRTY:
+                        if not closed and (i == 0 or i == n - 1):
+                            cur = INT64_MAX
+                        else:
+                            cur = _importance(
+                                has_w, px[b], py[b], pw[b], px[i], py[i], pw[i],
+                                px[a], py[a], pw[a], max_res2, max_area)
+                        imp[i] = cur
+                        f ^= _DIRTY
+                        if cur > k:  # re-push; dirty implies not _FAILED
+                            if cur <= max_dev2:
+                                d = (bq[lut + cur] if 0 <= cur < nl2
+                                     else _high_bucket(cur, nb2))
+                                if d >= 0:
+                                    w = i >> 6
+                                    bits[d * nw + w] |= np.int64(1) << (i & 63)
+                                    bq[d] += 1
+                                    bq[nb + d] = min(bq[nb + d], w)
+                                    dmin = min(dmin, d)
+                                    nbk += 1
+                                else:
+                                    _push(hk, hi, size, cur, i)
+                                    size += 1
+                            else:  # would be skipped unless its inputs change again
+                                f ^= _INHEAP
+                            fl[i] = f
+                            continue
+                        # cur < k: the re-pushed entry (cur, i) would be the smallest
+                        # (all others are > (k, i)), popped at once: go on with it
+                        k = cur
+                    f = ((f & ((1 << _EPOCH) - 1)) ^ _INHEAP) | popped
+                    if k > max_dev2:
+                        fl[i] = f
+                        continue
+                    # CuraEngine's remove(i): moved = -1 (nothing moves), b or a
+                    moved = -2
+                    if k <= MIN_RES2:
+                        moved = -1
+                    else:
+                        vx = px[i]
+                        vy = py[i]
+                        lb = (vx - px[b]) * (vx - px[b]) + (vy - py[b]) * (vy - py[b])
+                        la = (vx - px[a]) * (vx - px[a]) + (vy - py[a]) * (vy - py[a])
+                        if lb <= max_res2 and la <= max_res2:
+                            moved = -1
+                        elif lb <= la:  # the edge before i is short (a tie too)
+                            if closed or b != 0:
+                                bb = prv[b]
+                                ok, x, y = _collapse(px[bb], py[bb], px[b], py[b],
+                                                     vx, vy, px[a], py[a], max_dev2)
+                                if ok:
+                                    moved = b
+                        elif closed or a != n - 1:
+                            aa = nxt[a]
+                            ok, x, y = _collapse(px[b], py[b], vx, vy, px[a], py[a],
+                                                 px[aa], py[aa], max_dev2)
+                            if ok:
+                                moved = a
+                    if moved == -2:
+                        fl[i] = f | _FAILED
+                        continue
+                    fl[i] = f | _DELETED
+                    removed += 1
+                    nxt[b] = a
+                    prv[a] = b
+                    # vertices whose window changed (tq[2q]) and whether their
+                    # importance inputs did (tq[2q + 1])
+                    tq[0] = b
+                    tq[1] = _DIRTY
+                    tq[2] = a
+                    tq[3] = _DIRTY
+                    tq[4] = prv[b]
+                    tq[5] = 0
+                    tq[6] = nxt[a]
+                    tq[7] = 0
+                    nt = 4
+                    if moved >= 0:
+                        if has_w:
+                            pw[moved] = tdiv(pw[b] + pw[a], 2)
+                        px[moved] = x
+                        py[moved] = y
+                        nt = 5
+                        if moved == b:
+                            tq[5] = _DIRTY
+                            tq[8] = prv[tq[4]]
+                        else:
+                            tq[7] = _DIRTY
+                            tq[8] = nxt[tq[6]]
+                        tq[9] = 0
+                    for q in range(nt):
+                        j = tq[2 * q]
+                        f = (fl[j] & ~_FAILED) | tq[2 * q + 1]
+                        if (f & _INHEAP) == 0:
+                            if (f >> _EPOCH) != pas:  # side entry
+                                kj = imp[j]
+                                # not passed over yet:
+                                if kj > hwk or (kj == hwk and j > hwi):
+                                    if (f & _DIRTY) != 0 or kj <= max_dev2:
+                                        d = (bq[lut + kj] if 0 <= kj < nl2
+                                             else _high_bucket(kj, nb2))
+                                        if d >= 0:
+                                            w = j >> 6
+                                            bits[d * nw + w] |= np.int64(1) << (j & 63)
+                                            bq[d] += 1
+                                            bq[nb + d] = min(bq[nb + d], w)
+                                            dmin = min(dmin, d)
+                                            nbk += 1
+                                        else:
+                                            _push(hk, hi, size, kj, j)
+                                            size += 1
+                                        f |= _INHEAP
+                                else:
+                                    f = (f & ((1 << _EPOCH) - 1)) | popped
+                            if (f >> _EPOCH) == pas and (f & _CAND) == 0:
+                                cand[nc] = j  # popped: a candidate for the next pass
+                                nc += 1
+                                f |= _CAND
+                        fl[j] = f
+            m = 0
+            for i in range(n):
+                if (fl[i] & _DELETED) == 0:
+                    px[m] = px[i]
+                    py[m] = py[i]
+                    pw[m] = pw[i]
+                    m += 1
+            if m < min_size or (m == min_size and _tiny(
+                    px[0], py[0], px[1], py[1], px[m - 1], py[m - 1])):
+                m = 0
+        for t in range(m):
+            out_coords[pos + t, 0] = px[t]
+            out_coords[pos + t, 1] = py[t]
+        if has_w:
+            for t in range(m):
+                out_widths[pos + t] = pw[t]
+        pos += m
+        out_counts[rr] = m
 
 
-@kernel(
-    types.Tuple((I64_2D_OUT, I64_1D_OUT, I64_1D_OUT))(
-        I64_2D, I64_1D, I64_1D, B1, B1, I64, I64, I64
-    ), parallel=True,
-)
-def _simplify_core(coords, widths, ring_offsets, has_w, closed, max_resolution,
-                   max_deviation, max_area_deviation):
-    """Simplify all rings: chunks of rings in parallel, then compact serially.
-
-    Ring ``r`` writes its result at its own input offset (a result is never
-    longer than its input), so chunks never overlap; counts are then scanned and
-    the rings moved forward in order.
-    """
-    n_rings = ring_offsets.shape[0] - 1
-    n_all = coords.shape[0]
-    max_res2 = max_resolution * max_resolution
-    max_dev2 = max_deviation * max_deviation
-    nb = max_deviation + 1 if max_deviation < _MAX_BUCKETS else 0
-    # chunks of consecutive rings with about equal vertex counts
-    n_chunks = min(n_rings, 64)
-    bounds = np.zeros(n_chunks + 1, np.int64)
-    r = 0
-    for c in range(1, n_chunks):
-        target = (n_all * c) // n_chunks
-        while r < n_rings and ring_offsets[r] < target:
-            r += 1
-        bounds[c] = r
-    bounds[n_chunks] = n_rings
-    buf = np.empty((n_all, 2), np.int64)
-    buf_w = np.empty(n_all if has_w else 0, np.int64)
-    counts = np.zeros(n_rings, np.int64)
-    for c in prange(n_chunks):
-        r0 = bounds[c]
-        r1 = bounds[c + 1]
-        max_len = 0
-        for rr in range(r0, r1):
-            max_len = max(max_len, ring_offsets[rr + 1] - ring_offsets[rr])
-        px = np.empty(max_len, np.int64)
-        py = np.empty(max_len, np.int64)
-        pw = np.zeros(max_len, np.int64)
-        prv = np.empty(max_len, np.int64)
-        nxt = np.empty(max_len, np.int64)
-        fl = np.empty(max_len, np.int64)
-        imp = np.empty(max_len, np.int64)
-        hk = np.empty(max_len, np.int64)
-        hi = np.empty(max_len, np.int64)
-        tq = np.empty(12, np.int64)
-        bits = np.empty(nb * ((max_len + 63) >> 6), np.int64)
-        bq = np.full(2 * nb + nb * nb, -1, np.int64)
-        for d in range(nb):
-            bq[2 * nb + d * d] = d
-        for rr in range(r0, r1):
-            start = ring_offsets[rr]
-            n = ring_offsets[rr + 1] - start
-            for k in range(n):
-                px[k] = coords[start + k, 0]
-                py[k] = coords[start + k, 1]
-                if has_w:
-                    pw[k] = widths[start + k]
-            m = _simplify_one(px, py, pw, has_w, n, closed, max_res2, max_dev2,
-                              max_area_deviation, prv, nxt, fl, imp, hk, hi, tq,
-                              bits, bq, nb)
-            for k in range(m):
-                buf[start + k, 0] = px[k]
-                buf[start + k, 1] = py[k]
-                if has_w:
-                    buf_w[start + k] = pw[k]
-            counts[rr] = m
-    new_offsets = np.empty(n_rings + 1, np.int64)
-    new_offsets[0] = 0
-    for rr in range(n_rings):
-        new_offsets[rr + 1] = new_offsets[rr] + counts[rr]
-    j = new_offsets[n_rings]
-    out = np.empty((j, 2), np.int64)
-    out_w = np.empty(j if has_w else 0, np.int64)
-    for rr in range(n_rings):
-        src = ring_offsets[rr]
-        dst = new_offsets[rr]
-        for k in range(counts[rr]):
-            out[dst + k, 0] = buf[src + k, 0]
-            out[dst + k, 1] = buf[src + k, 1]
-            if has_w:
-                out_w[dst + k] = buf_w[src + k]
-    return out, out_w, new_offsets
+@kernel(I64_1D_OUT(I64_1D))
+def _offsets_of(counts):
+    """Ring offsets of rings with these vertex counts."""
+    offsets = np.empty(counts.shape[0] + 1, np.int64)
+    offsets[0] = 0
+    for r in range(counts.shape[0]):
+        offsets[r + 1] = offsets[r] + counts[r]
+    return offsets
 
 
 @kernel(
@@ -540,12 +607,16 @@ def simplify_rings(coords, ring_offsets, closed, max_resolution, max_deviation,
 
     Returns ``(new_coords, new_ring_offsets)`` with one (possibly empty) output
     ring per input ring. ``max_area_deviation`` has no effect without widths.
+    Serial: ``vecslice.simplify`` runs :func:`simplify_range` on threads.
     """
-    widths = np.empty(0, np.int64)
-    out, _, offs = _simplify_core(coords, widths, ring_offsets, False, closed,
-                                  max_resolution, max_deviation,
-                                  max_area_deviation)
-    return out, offs
+    n_rings = ring_offsets.shape[0] - 1
+    buf = np.empty((coords.shape[0], 2), np.int64)
+    counts = np.empty(n_rings, np.int64)
+    simplify_range(coords, np.empty(0, np.int64), ring_offsets, False, closed,
+                   max_resolution, max_deviation, max_area_deviation, 0, n_rings,
+                   buf, np.empty(0, np.int64), counts)
+    offsets = _offsets_of(counts)
+    return buf[:offsets[n_rings]].copy(), offsets
 
 
 @kernel(
@@ -561,8 +632,16 @@ def simplify_rings_w(coords, widths, ring_offsets, closed, max_resolution,
     new_widths, new_ring_offsets)``; an intersection vertex gets the truncated
     mean width of the removed vertex's two neighbours.
     """
-    return _simplify_core(coords, widths, ring_offsets, True, closed,
-                          max_resolution, max_deviation, max_area_deviation)
+    n_rings = ring_offsets.shape[0] - 1
+    buf = np.empty((coords.shape[0], 2), np.int64)
+    buf_w = np.empty(coords.shape[0], np.int64)
+    counts = np.empty(n_rings, np.int64)
+    simplify_range(coords, widths, ring_offsets, True, closed, max_resolution,
+                   max_deviation, max_area_deviation, 0, n_rings, buf, buf_w,
+                   counts)
+    offsets = _offsets_of(counts)
+    j = offsets[n_rings]
+    return buf[:j].copy(), buf_w[:j].copy(), offsets
 
 
 @kernel(I64_1D_OUT(I64_2D, I64_1D))

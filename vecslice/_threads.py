@@ -17,7 +17,13 @@ import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 
-__all__ = ["run_chunks"]
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["chunk_bounds", "run_chunks"]
+
+_MIN_CHUNK = 16_384  # vertices: smaller chunks are not worth a thread
+_CHUNKS_PER_THREAD = 4  # some slack for chunks of unequal cost
 
 _pool: ThreadPoolExecutor | None = None
 _pool_size = 0
@@ -32,6 +38,31 @@ def _executor(size: int) -> ThreadPoolExecutor:
                                        thread_name_prefix="vecslice-chunks")
             _pool_size = size
         return _pool
+
+
+def chunk_bounds(ring_offsets: NDArray[np.int64], threads: int | None = None,
+                 min_chunk: int = _MIN_CHUNK) -> NDArray[np.int64]:
+    """Ring indices that cut rings into chunks of about equal vertex counts.
+
+    Returns ``bounds`` (ascending, from 0 to the ring count) for chunks
+    ``bounds[c] .. bounds[c + 1] - 1``: one chunk for small inputs or one
+    thread, else up to ``4 * threads`` (default: numba's) chunks of at least
+    ``min_chunk`` vertices each.
+    """
+    if threads is None:
+        import numba
+
+        threads = numba.get_num_threads()
+    n_rings = ring_offsets.shape[0] - 1
+    total = int(ring_offsets[-1]) if n_rings > 0 else 0
+    n_chunks = min(n_rings, _CHUNKS_PER_THREAD * threads, total // min_chunk)
+    if threads < 2 or n_chunks < 2:
+        return np.array([0, n_rings], dtype=np.int64)
+    targets = total * np.arange(n_chunks + 1, dtype=np.int64) // n_chunks
+    bounds = np.minimum(np.searchsorted(ring_offsets, targets), n_rings)
+    bounds[0] = 0
+    bounds[-1] = n_rings
+    return np.unique(bounds)
 
 
 def run_chunks(fn: Callable[[int, int], object], bounds: Sequence[int],

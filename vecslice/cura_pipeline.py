@@ -19,16 +19,13 @@ from vecslice._kernels.cura_clean import (
     remove_degenerate_polyline_vertices,
 )
 from vecslice._kernels.cura_polylines import stitch_open_polylines
-from vecslice._kernels.simplify import (
-    remove_degenerate_vertices,
-    ring_perimeters,
-    simplify_rings,
-)
+from vecslice._kernels.simplify import remove_degenerate_vertices, ring_perimeters
 from vecslice.cura_slicing import NO_COMPENSATION, CuraLayers, concat_layers, cura_raw
 from vecslice.layers import layer_heights
 from vecslice.parts import apply_slicing_tolerance, make_parts
 from vecslice.paths import LayerPaths
 from vecslice.settings import SliceSettings
+from vecslice.simplify import simplify_rings
 
 if TYPE_CHECKING:
     from vecslice.storage import SlicedModel

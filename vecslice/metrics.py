@@ -20,8 +20,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vecslice._kernels.metrics import compare_rings
+from vecslice._kernels.metrics import compare_range
 from vecslice._kernels.simplify import ring_perimeters
+from vecslice._threads import chunk_bounds, run_chunks
 from vecslice._validate import check_int
 from vecslice.errors import InputTypeError, InputValueError
 from vecslice.moves import MoveStats, move_stats
@@ -146,6 +147,25 @@ class ContourErrors:
         return int((dev[~np.isnan(dev)] > limit_um).sum())
 
 
+def _compare_rings(
+    raw: NDArray[np.int64], raw_offsets: NDArray[np.int64],
+    simp: NDArray[np.int64], simp_offsets: NDArray[np.int64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+           NDArray[np.bool_]]:
+    """The kernel ``compare_rings`` on threads, same results.
+
+    Chunks of ring pairs of about equal vertex counts, each measured by the
+    kernel ``compare_range``.
+    """
+    n = raw_offsets.shape[0] - 1
+    d1, d2 = np.empty(n, dtype=np.float64), np.empty(n, dtype=np.float64)
+    area, linear = np.empty(n, dtype=np.float64), np.zeros(n, dtype=np.bool_)
+    run_chunks(lambda r0, r1: compare_range(raw, raw_offsets, simp, simp_offsets,
+                                            r0, r1, d1, d2, area, linear),
+               chunk_bounds(raw_offsets + simp_offsets))
+    return d1, d2, area, linear
+
+
 def contour_errors(raw: LayerPaths, simplified: LayerPaths) -> ContourErrors:
     """Measure simplified rings against the raw rings they came from, ring by ring.
 
@@ -192,6 +212,13 @@ def contour_errors(raw: LayerPaths, simplified: LayerPaths) -> ContourErrors:
     >>> err.max_deviation_um, err.area_error_um2
     (7.0, 3500.0)
     """
+    return _contour_errors(raw, simplified)
+
+
+def _contour_errors(raw: LayerPaths, simplified: LayerPaths,
+                    raw_area_um2: NDArray[np.float64] | None = None
+                    ) -> ContourErrors:
+    """:func:`contour_errors`, given the raw layers' areas (µm²) if known."""
     raw = _check_layer_paths(raw, "raw")
     simplified = _check_layer_paths(simplified, "simplified")
     if raw.n_layers != simplified.n_layers or not np.array_equal(
@@ -202,7 +229,7 @@ def contour_errors(raw: LayerPaths, simplified: LayerPaths) -> ContourErrors:
             f"({raw.n_layers} layers, {raw.n_rings} rings); got "
             f"{simplified.n_layers} layers, {simplified.n_rings} rings"
         )
-    d1, d2, area, linear = compare_rings(
+    d1, d2, area, linear = _compare_rings(
         raw.coords, raw.ring_offsets, simplified.coords, simplified.ring_offsets
     )
     return ContourErrors(
@@ -211,7 +238,8 @@ def contour_errors(raw: LayerPaths, simplified: LayerPaths) -> ContourErrors:
         xor_area_um2=area,
         linear=linear,
         ring_layer=raw.ring_layer(),
-        raw_area_um2=raw.layer_area2().astype(np.float64) / 2,
+        raw_area_um2=(raw.layer_area2().astype(np.float64) / 2
+                      if raw_area_um2 is None else raw_area_um2),
     )
 
 

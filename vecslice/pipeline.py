@@ -15,17 +15,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice._kernels.rings import take_rings
-from vecslice._kernels.simplify import (
-    remove_degenerate_vertices,
-    ring_perimeters,
-    simplify_rings,
-)
+from vecslice._kernels.simplify import remove_degenerate_vertices, ring_perimeters
 from vecslice._validate import check_bool
 from vecslice.errors import InputTypeError
 from vecslice.layers import layer_heights
 from vecslice.parts import apply_slicing_tolerance, make_parts
 from vecslice.paths import LayerPaths
 from vecslice.settings import SliceSettings
+from vecslice.simplify import simplify_rings
 from vecslice.slicing import slice_contours
 from vecslice.stitch import stitch
 from vecslice.storage import SlicedModel

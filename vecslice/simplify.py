@@ -17,7 +17,8 @@ from vecslice._kernels.simplify import (
     remove_degenerate_vertices as _remove_degenerate_kernel,
 )
 from vecslice._kernels.simplify import ring_perimeters as _ring_perimeters_kernel
-from vecslice._kernels.simplify import simplify_rings, simplify_rings_w
+from vecslice._kernels.simplify import simplify_range
+from vecslice._threads import chunk_bounds, run_chunks
 from vecslice._validate import as_coords, as_int_array, check_int
 from vecslice.errors import InputTypeError, InputValueError, LayoutError
 from vecslice.paths import Paths
@@ -31,6 +32,49 @@ _THRESHOLD_MAX = 2**31 - 1  # squares must fit int64 (CuraEngine squares them)
 def _trusted_paths(coords: NDArray[np.int64], offsets: NDArray[np.int64]) -> Paths:
     """Wrap kernel output (already valid) without re-validating or copying."""
     return Paths._trusted(coords, offsets)
+
+
+def simplify_rings(
+    coords: NDArray[np.int64],
+    ring_offsets: NDArray[np.int64],
+    closed: bool,
+    max_resolution: int,
+    max_deviation: int,
+    max_area_deviation: int,
+    widths: NDArray[np.int64] | None = None,
+) -> tuple[NDArray[np.int64], NDArray[np.int64]] | tuple[
+        NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """Kernel ``simplify_rings`` (``simplify_rings_w`` given ``widths``) on threads.
+
+    Same arguments (trusted: the caller validated them) and results, bit for
+    bit: chunks of rings are simplified by :func:`simplify_range` on numba's
+    thread count, each chunk writing back to back from its first input row,
+    and the chunks are then moved together.
+    """
+    n_rings = ring_offsets.shape[0] - 1
+    has_w = widths is not None
+    wi = widths if widths is not None else np.empty(0, dtype=np.int64)
+    buf = np.empty((coords.shape[0], 2), dtype=np.int64)
+    buf_w = np.empty(coords.shape[0] if has_w else 0, dtype=np.int64)
+    counts = np.empty(n_rings, dtype=np.int64)
+    bounds = chunk_bounds(ring_offsets)
+    run_chunks(lambda r0, r1: simplify_range(
+        coords, wi, ring_offsets, has_w, bool(closed), max_resolution,
+        max_deviation, max_area_deviation, r0, r1, buf, buf_w, counts), bounds)
+    offsets = np.zeros(n_rings + 1, dtype=np.int64)
+    np.cumsum(counts, out=offsets[1:])
+    out = np.empty((int(offsets[-1]), 2), dtype=np.int64)
+    out_w = np.empty(out.shape[0] if has_w else 0, dtype=np.int64)
+
+    def gather(r0: int, r1: int) -> None:
+        dst0, dst1 = offsets[r0], offsets[r1]
+        src0 = ring_offsets[r0]
+        out[dst0:dst1] = buf[src0:src0 + dst1 - dst0]
+        if has_w:
+            out_w[dst0:dst1] = buf_w[src0:src0 + dst1 - dst0]
+
+    run_chunks(gather, bounds)
+    return (out, out_w, offsets) if has_w else (out, offsets)
 
 
 def _drop_empty(offsets: NDArray[np.int64]) -> NDArray[np.int64]:
@@ -166,7 +210,8 @@ def simplify(
         w = None
     else:
         wi = _check_widths(widths, coords.shape[0])
-        c, w, o = simplify_rings_w(coords, wi, offsets, bool(closed), res, dev, area)
+        c, w, o = simplify_rings(coords, offsets, bool(closed), res, dev, area,
+                                 widths=wi)
     out: Paths | NDArray[np.int64]
     out = _trusted_paths(c, _drop_empty(o)) if isinstance(paths, Paths) else c
     return out if w is None else (out, w)

@@ -13,6 +13,7 @@ import math
 import os
 import time
 from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from difflib import get_close_matches
 from pathlib import Path
@@ -215,13 +216,15 @@ def _prepare(source: Any, scale: float) -> _Prepared:
 
 
 def _variant(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
-             settings: SliceSettings, kept: Any = None) -> tuple[Any, Any]:
+             settings: SliceSettings, kept: Any = None,
+             raw_area_um2: Any = None) -> tuple[Any, Any]:
     """:func:`vecslice.slice_mesh`'s stages after the raw contours, and the errors.
 
     Returns ``(model, errors)``; ``model`` is what ``slice_mesh`` returns for
-    these settings (tests check it).
+    these settings (tests check it). ``raw_area_um2``: the raw layers' areas
+    (the same for every combination of a schedule), when the caller has them.
     """
-    from vecslice.metrics import contour_errors
+    from vecslice.metrics import _contour_errors
     from vecslice.parts import apply_slicing_tolerance, make_parts
     from vecslice.paths import LayerPaths
     from vecslice.pipeline import _clean_closed, _cleaned
@@ -229,19 +232,25 @@ def _variant(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
 
     slice_z, print_z, thickness = schedule
     coords, offsets = _clean_closed(raw, settings, kept)
-    errors = contour_errors(
-        LayerPaths._trusted(raw.coords, raw.ring_offsets, raw.layer_offsets),
-        LayerPaths._trusted(coords, offsets, raw.layer_offsets.copy()),
-    )
-    loops = _cleaned(raw, settings, coords, offsets)
-    loops = apply_slicing_tolerance(loops, settings.slicing_tolerance)
-    parts = make_parts(loops,
-                       union_overlapping_volumes=settings.union_overlapping_volumes)
-    open_chains = raw.open.rings_per_layer() if raw.open is not None else None
-    model = SlicedModel.from_parts(parts, slice_z=slice_z, print_z=print_z,
-                                   thickness=thickness, open=loops.open,
-                                   open_chains=open_chains, stitched_gaps=stitched)
-    return model, errors
+    # the errors are measured on another thread while this one makes the parts
+    # (manifold3d's union runs on one core; the metrics kernel uses the rest)
+    with ThreadPoolExecutor(1, thread_name_prefix="vecslice-metrics") as pool:
+        errors = pool.submit(
+            _contour_errors,
+            LayerPaths._trusted(raw.coords, raw.ring_offsets, raw.layer_offsets),
+            LayerPaths._trusted(coords, offsets, raw.layer_offsets.copy()),
+            raw_area_um2,
+        )
+        loops = _cleaned(raw, settings, coords, offsets)
+        loops = apply_slicing_tolerance(loops, settings.slicing_tolerance)
+        parts = make_parts(
+            loops, union_overlapping_volumes=settings.union_overlapping_volumes)
+        open_chains = raw.open.rings_per_layer() if raw.open is not None else None
+        model = SlicedModel.from_parts(parts, slice_z=slice_z, print_z=print_z,
+                                       thickness=thickness, open=loops.open,
+                                       open_chains=open_chains,
+                                       stitched_gaps=stitched)
+        return model, errors.result()
 
 
 def _rows(prep: _Prepared, mesh_index: int, name: str,
@@ -275,6 +284,7 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
         return [_row(mesh_index, name, i, s, None, _describe(exc)) for i, s in combos]
     prep_seconds = prep.seconds + time.perf_counter() - t
     kept: dict[int, Any] = {}  # perimeter filters, by minimum circumference
+    raw_area = None  # µm², per raw layer: shared by all combinations
     mesh_volume = mesh.volume
     for i, s in combos:
         t = time.perf_counter()
@@ -285,7 +295,10 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
                 c = s.minimum_polygon_circumference
                 if c not in kept:
                     kept[c] = _kept_loops(raw, c)
-                model, err = _variant(raw, stitched, schedule, s, kept[c])
+                if raw_area is None:
+                    raw_area = raw.layer_area2().astype(np.float64) / 2
+                model, err = _variant(raw, stitched, schedule, s, kept[c],
+                                      raw_area)
             moves = move_stats(model, speed_mm_s=speed, controller_ms=controller_ms,
                                percentiles=(1, 5, 50))
             vol = volume_error(model, mesh, _mesh_volume=mesh_volume)
@@ -364,10 +377,10 @@ def _local_scheduler() -> str:
     """Dask's threads, unless numba's only threading layer is unsafe for them."""
     import numba
 
-    from vecslice._kernels.metrics import compare_rings
+    from vecslice._kernels.contours import vertex_layers
 
-    z = np.zeros((0, 2), np.int64)
-    compare_rings(z, np.zeros(1, np.int64), z, np.zeros(1, np.int64))
+    # a parallel kernel the sweep runs anyway: numba picks its threading layer
+    vertex_layers(np.zeros((1, 3), np.int64), np.zeros(1, np.int64))
     try:
         layer = numba.threading_layer()
     except ValueError:

@@ -246,6 +246,31 @@ def test_empty_and_tiny_rings():
     assert new_offs.tolist() == [0, 0, 0, 0, 0]
 
 
+def test_vertex_popped_in_two_passes_is_tracked_per_pass():
+    # needs several passes: a vertex whose entry was popped in one pass and
+    # enters the queue of a later one is "popped" there only after its pop
+    ring = [[-3, 2], [1, -2], [-3, -2], [-1, -1], [-3, 0], [1, 1], [-2, -1],
+            [-2, 0], [0, -2], [1, 2]]
+    want = ref.simplify(ring, closed=True, max_resolution=2000, max_deviation=1,
+                        max_area_deviation=5)
+    assert want == [[-3, 2], [1, -2], [1, 2]]
+    assert _run(ring, True, 2000, 1, 5).tolist() == want
+
+
+@pytest.mark.parametrize("dev", [1, 2, 4])
+def test_dense_tiny_rings_over_many_passes_match_reference(dev):
+    # small coordinates and deviations: many passes, many stale entries
+    rng = np.random.default_rng(77 + dev)
+    rings = [(rng.integers(-4, 5, (int(rng.integers(3, 60)), 2))
+              * int(rng.choice([1, 2, 5]))).tolist() for _ in range(150)]
+    coords, offs = _ragged(rings)
+    for closed in (True, False):
+        out, new_offs = simplify_rings(coords, offs, closed, 2000, dev, 5)
+        want = [ref.simplify(r, closed=closed, max_resolution=2000,
+                             max_deviation=dev) for r in rings]
+        assert _rings_of(out, new_offs) == want
+
+
 def test_large_ring_with_all_vertices_collinear_terminates():
     n = 20_000
     coords = np.stack([np.arange(n), np.zeros(n, np.int64)], 1).astype(np.int64)

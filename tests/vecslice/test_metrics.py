@@ -227,3 +227,31 @@ def test_volume_error_checks_its_input(cylinder):
         volume_error(cylinder, cylinder)
     with pytest.raises(vs.InputTypeError, match="`mesh` must be"):
         volume_error(model, model)
+
+
+def test_threaded_compare_rings_matches_the_serial_kernel(monkeypatch):
+    import sys
+
+    from vecslice._kernels.metrics import compare_rings
+    from vecslice._kernels.simplify import simplify_rings
+    from vecslice._threads import chunk_bounds
+
+    vm = sys.modules["vecslice.metrics"]
+    monkeypatch.setattr(vm, "chunk_bounds",
+                        lambda offs: chunk_bounds(offs, threads=2, min_chunk=300))
+    rng = np.random.default_rng(5)
+    lengths = rng.integers(3, 150, 300)
+    offs = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+    ring = np.repeat(np.arange(300), lengths)
+    ang = 2 * np.pi * (np.arange(offs[-1]) - offs[ring]) / lengths[ring]
+    rad = 2000 + rng.integers(-60, 61, offs[-1])
+    coords = np.stack([np.rint(rad * np.cos(ang)) + 5000 * (ring % 20),
+                       np.rint(rad * np.sin(ang)) + 5000 * (ring // 20)],
+                      1).astype(np.int64)
+    sc, so = simplify_rings(coords, offs, True, 500, 25, 50000)
+    assert len(chunk_bounds(offs + so, threads=2, min_chunk=300)) > 3
+    got = vm._compare_rings(coords, offs, sc, so)
+    want = compare_rings(coords, offs, sc, so)
+    assert want[2].max() > 0
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, w)

@@ -217,3 +217,38 @@ def test_errors_are_builtin_subclasses():
         simplify(SQ, closed=None)
     with pytest.raises(ValueError):
         simplify(SQ, max_resolution=-1)
+
+
+@pytest.mark.parametrize("closed", [True, False])
+@pytest.mark.parametrize("with_widths", [False, True])
+def test_threaded_simplify_rings_matches_the_serial_kernel(monkeypatch, closed,
+                                                           with_widths):
+    import sys
+
+    from vecslice._kernels.simplify import simplify_rings as kernel
+    from vecslice._kernels.simplify import simplify_rings_w as kernel_w
+    from vecslice._threads import chunk_bounds
+
+    vsimp = sys.modules["vecslice.simplify"]  # vs.simplify is the function
+    # many small chunks on two threads, whatever the machine's thread count
+    monkeypatch.setattr(vsimp, "chunk_bounds",
+                        lambda offs: chunk_bounds(offs, threads=2, min_chunk=200))
+    rng = np.random.default_rng(11)
+    lengths = rng.integers(0, 120, 400)
+    offs = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+    ang = rng.uniform(0, 2 * np.pi, offs[-1])
+    coords = np.stack([np.rint(3000 * np.cos(ang)) + rng.integers(-40, 41, ang.size),
+                       np.rint(3000 * np.sin(ang))], 1).astype(np.int64)
+    coords = coords[np.lexsort((ang, np.repeat(np.arange(400), lengths)))]
+    assert len(chunk_bounds(offs, threads=2, min_chunk=200)) > 3
+    if with_widths:
+        w = rng.integers(300, 500, offs[-1]).astype(np.int64)
+        got = vsimp.simplify_rings(coords, offs, closed, 500, 25, 2000, widths=w)
+        want = kernel_w(coords, w, offs, closed, 500, 25, 2000)
+    else:
+        got = vsimp.simplify_rings(coords, offs, closed, 500, 25, 50000)
+        want = kernel(coords, offs, closed, 500, 25, 50000)
+    assert len(got) == len(want)
+    assert np.diff(want[-1]).min() == 0 and want[-1][-1] < offs[-1]  # some removed
+    for g, x in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, x)

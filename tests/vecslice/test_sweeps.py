@@ -62,6 +62,7 @@ def test_rows_equal_slice_mesh_and_metrics(meshes_dir):
         assert row.raw_vertices == raw.coords.shape[0]
         assert row.max_deviation_um == err.max_deviation_um
         assert row.area_error_um2 == err.area_error_um2
+        assert row.relative_area_error == err.relative_area_error
         moves = vs.metrics.move_stats(model)
         assert row.short_move_fraction == moves.short_move_fraction
         assert row.moves_per_s == moves.moves_per_s

@@ -1,8 +1,9 @@
 import threading
 
+import numpy as np
 import pytest
 
-from vecslice._threads import run_chunks
+from vecslice._threads import chunk_bounds, run_chunks
 
 
 def test_every_chunk_runs_once_with_its_bounds():
@@ -76,3 +77,28 @@ def test_nested_calls_do_not_wait_for_a_busy_pool():
     t.join(60)
     assert not t.is_alive(), "nested run_chunks deadlocked"
     assert sorted(out) == [0, 1, 10, 11, 20, 21]
+
+
+def _offsets(lengths):
+    return np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+
+
+def test_one_chunk_for_one_thread_or_small_inputs():
+    offs = _offsets([100_000] * 10)
+    assert chunk_bounds(offs, threads=1).tolist() == [0, 10]
+    assert chunk_bounds(_offsets([10] * 10), threads=2).tolist() == [0, 10]
+    assert chunk_bounds(_offsets([]), threads=2).tolist() == [0, 0]
+
+
+def test_chunks_cover_all_rings_with_about_equal_vertex_counts():
+    rng = np.random.default_rng(3)
+    lengths = rng.integers(0, 200, 5000)
+    offs = _offsets(lengths)
+    b = chunk_bounds(offs, threads=2, min_chunk=100)
+    assert b[0] == 0 and b[-1] == len(lengths)
+    assert (np.diff(b) > 0).all()
+    assert len(b) - 1 == 8  # 4 chunks per thread
+    per_chunk = np.diff(offs[b])
+    assert per_chunk.max() - per_chunk.min() <= 2 * 200
+
+
