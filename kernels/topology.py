@@ -4,7 +4,7 @@ import numpy as np
 from numba import prange, types
 
 from ._jit import kernel, run_serial
-from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+from ._types import I64, I64_1D, I64_1D_OUT, I64_1D_W, I64_2D, I64_2D_OUT
 
 _SMALL_BUCKET = 32
 
@@ -173,16 +173,17 @@ _PACK_LIMIT = 1 << 30  # vertices (and half-edges >> 2) below this pack into one
 _CHUNK_VERTICES = 1 << 15  # vertices per chunk of bucket matching (at most 16 chunks)
 
 
-@kernel(types.Tuple((I64_1D_OUT, I64_1D_OUT))(I64_2D, I64))
-def _pack_half_edges(faces, n_vertices):
-    """Half-edges bucketed by their smaller vertex: ``(offsets, packed)``.
+@kernel(I64_1D_OUT(I64_2D, I64, I64_1D_W))
+def _pack_half_edges(faces, n_vertices, packed):
+    """Half-edges bucketed by their smaller vertex into ``packed``; returns offsets.
 
     A counting sort, stable. Each half-edge is one int64: the other vertex, the
     direction (1 when the bucket's vertex is its start) and the half-edge id,
-    ``(other << 33) | (direction << 32) | id``.
+    ``(other << 33) | (direction << 32) | id``. ``packed`` (3F,) is given by the
+    caller: allocated by numpy, a large one lies on huge pages (numba's own
+    allocations take a page fault per 4 kB of fresh memory).
     """
     n_faces = faces.shape[0]
-    n_half = 3 * n_faces
     offsets = np.zeros(n_vertices + 1, dtype=np.int64)
     for f in range(n_faces):
         for j in range(3):
@@ -192,7 +193,6 @@ def _pack_half_edges(faces, n_vertices):
     for v in range(n_vertices):
         offsets[v + 1] += offsets[v]
     fill = offsets[:-1].copy()
-    packed = np.empty(n_half, dtype=np.int64)
     for f in range(n_faces):
         for j in range(3):
             a = faces[f, j]
@@ -205,7 +205,7 @@ def _pack_half_edges(faces, n_vertices):
                 key = a << 1
             packed[fill[v]] = (key << 32) | (3 * f + j)
             fill[v] += 1
-    return offsets, packed
+    return offsets
 
 
 @kernel(types.void(types.int64[::1], I64, I64))
@@ -303,7 +303,8 @@ def half_edge_twins(faces, n_vertices, run=run_serial):
     n_half = 3 * faces.shape[0]
     if n_vertices >= _PACK_LIMIT or n_half >= 4 * _PACK_LIMIT:
         return edge_topology(faces, n_vertices)[2]
-    offsets, packed = _pack_half_edges(faces, n_vertices)
+    packed = np.empty(n_half, dtype=np.int64)
+    offsets = _pack_half_edges(faces, n_vertices, packed)
     twin = np.full(n_half, -1, dtype=np.int64)
     n_chunks = max(1, min(16, -(-n_vertices // _CHUNK_VERTICES)))
     bounds = (n_vertices * np.arange(n_chunks + 1, dtype=np.int64)) // n_chunks
