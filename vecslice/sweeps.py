@@ -377,14 +377,15 @@ def _local_scheduler() -> str:
     """Dask's threads, unless numba's only threading layer is unsafe for them."""
     import numba
 
-    from vecslice._kernels.contours import vertex_layers
-
-    # a parallel kernel the sweep runs anyway: numba picks its threading layer
-    vertex_layers(np.zeros((1, 3), np.int64), np.zeros(1, np.int64))
+    # numba picks its threading layer when it first starts its thread pool (the
+    # sweep's cura and adaptive rows run parfors); start it now, no kernel needed
     try:
+        from numba.np.ufunc.parallel import _launch_threads
+
+        _launch_threads()
         layer = numba.threading_layer()
-    except ValueError:
-        return "threads"
+    except (ImportError, ValueError):  # numba's internals moved: be safe
+        return "sync"
     return "sync" if layer == "workqueue" else "threads"
 
 

@@ -218,3 +218,19 @@ def test_adaptive_and_cura_rows(box):
 def test_max_layers_gives_error_rows(box):
     t = vs.sweep(box, {"max_layers": [5], "layer_height": [100]})
     assert t["error"][0].startswith("SettingsError") and np.isnan(t["layers"][0])
+
+
+@pytest.mark.parametrize("layer, expected",
+                         [("workqueue", "sync"), ("default", "threads")])
+def test_local_scheduler_avoids_threads_on_numbas_workqueue_layer(layer, expected):
+    """Workqueue aborts when two threads launch parfors (cura, adaptive rows)."""
+    import subprocess
+
+    code = ("import numba; from vecslice.sweeps import _local_scheduler; "
+            "print(_local_scheduler(), numba.threading_layer())")
+    env = dict(os.environ, NUMBA_THREADING_LAYER=layer)
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                         text=True, check=True).stdout.split()
+    if layer == "default" and out[1] == "workqueue":
+        pytest.skip("no omp or tbb threading layer on this machine")
+    assert out[0] == expected
