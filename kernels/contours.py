@@ -464,7 +464,9 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
     run(closed, bounds)
     if broken.any():
         raise RuntimeError("trace_contours: a loop without a successor")
-    ring_offsets = np.append(np.flatnonzero(ring_start), n_closed).astype(np.int64)
+    # (0/1 bytes: numpy finds the ones of a bool view several times faster)
+    ring_offsets = np.append(np.flatnonzero(ring_start.view(np.bool_)),
+                             n_closed).astype(np.int64)
     layer_offsets = np.zeros(n_planes + 1, dtype=np.int64)
     layer_offsets[out_layer + 1] = rings_of
     np.cumsum(layer_offsets, out=layer_offsets)
@@ -472,25 +474,42 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
             open_rings)
 
 
-@kernel(I64_1D_OUT(I64_2D, I64_1D))
-def vertex_layers(vertices, z):
+@kernel(types.void(I64_2D, I64_1D, I64, I64, _I64_W))
+def _vertex_layers_range(vertices, z, v0, v1, out):
+    """:func:`vertex_layers` of vertices ``v0:v1``, written to ``out``.
+
+    A binary search without branches on the data (the halving steps depend only
+    on the number of planes; which half is kept is a select), so that the
+    unpredictable comparisons cost no mispredicted jumps.
+    """
+    n_planes = z.shape[0]
+    for v in range(v0, v1):
+        vz = vertices[v, 2]
+        if n_planes == 0:
+            out[v] = 0
+            continue
+        base = 0
+        n = n_planes
+        while n > 1:  # the answer lies in base .. base + n
+            half = n >> 1
+            base = base + half if z[base + half - 1] < vz else base
+            n -= half
+        out[v] = base + (1 if z[base] < vz else 0)
+
+
+_VERTEX_CHUNK = 1 << 16  # vertices per chunk of vertex_layers
+
+
+def vertex_layers(vertices, z, run=run_serial):
     """Number of planes strictly below each vertex: ``searchsorted(z, vz, "left")``.
 
     A vertex is above plane ``k`` iff ``k < vert_layer[v]`` (on the plane counts as
-    below). Binary search per vertex. Precondition: ``z`` sorted.
+    below). Binary search per vertex, chunks of vertices given to ``run``
+    (``run(fn, bounds)`` calls ``fn(lo, hi)`` for every chunk, in any order or at
+    once; by default one after another). Precondition: ``z`` sorted.
     """
     n = vertices.shape[0]
-    n_planes = z.shape[0]
     out = np.empty(n, dtype=np.int64)
-    for v in range(n):
-        vz = vertices[v, 2]
-        lo = 0
-        hi = n_planes
-        while lo < hi:
-            mid = (lo + hi) >> 1
-            if z[mid] < vz:
-                lo = mid + 1
-            else:
-                hi = mid
-        out[v] = lo
+    bounds = np.append(np.arange(0, n, _VERTEX_CHUNK), n)
+    run(lambda v0, v1: _vertex_layers_range(vertices, z, v0, v1, out), bounds)
     return out

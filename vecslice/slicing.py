@@ -33,7 +33,7 @@ def _layer_of_vertices(
     A vertex is above plane ``k`` iff ``k < vert_layer[v]``, so an element whose
     vertices have layers ``l`` meets planes ``min(l) <= k < max(l)``.
     """
-    return vertex_layers(vertices, z)
+    return vertex_layers(vertices, z, run=run_chunks)
 
 
 def _chunks_for(n_faces: int, n_planes: int) -> int:

@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -74,3 +75,14 @@ def test_vertex_layers_is_searchsorted_left(vz, planes):
     z = np.sort(np.concatenate([z, v[: len(vz) // 2, 2]]))
     expect = np.searchsorted(z, v[:, 2], side="left")
     assert vertex_layers(v, z).tolist() == expect.tolist()
+
+
+@pytest.mark.parametrize("n_planes", [0, 1, 2, 3, 478, 1000])
+def test_vertex_layers_in_chunks_on_threads(n_planes):
+    rng = np.random.default_rng(n_planes)
+    z = np.sort(rng.integers(-1000, 1000, n_planes)).astype(np.int64)
+    v = np.zeros((200_003, 3), dtype=np.int64)
+    v[:, 2] = rng.integers(-1100, 1100, v.shape[0])
+    expect = np.searchsorted(z, v[:, 2], side="left")
+    for run in (run_reversed, run_chunks):
+        assert np.array_equal(vertex_layers(v, z, run=run), expect)
