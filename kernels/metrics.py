@@ -53,6 +53,7 @@ from .pieces import (
     _find,
     _neighbours_apart,
     _others_conflicts,
+    _piece_edges,
 )
 from .planar import _point_segment, _to_ring, winding_area
 
@@ -121,25 +122,7 @@ def _ring_area(rc, r0, n, sc, s0, m, e):
 @kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, I64, I64, I64, I64, _W2))
 def _piece_area(rc, r0, n, sc, s0, m, p, q, ap, aq, e):
     """``∫ |w|`` of the piece: raw ``ap..aq``, then simplified ``q, q-1, ..., p``."""
-    ne = 0
-    for kk in range(ap, aq):
-        k = kk if kk < n else kk - n
-        k1 = k + 1 if k + 1 < n else 0
-        e[ne, 0] = rc[r0 + k, 0]
-        e[ne, 1] = rc[r0 + k, 1]
-        e[ne, 2] = rc[r0 + k1, 0]
-        e[ne, 3] = rc[r0 + k1, 1]
-        ne += 1
-    j = q
-    while j != p:
-        jb = j - 1 if j > 0 else m - 1
-        e[ne, 0] = sc[s0 + j, 0]
-        e[ne, 1] = sc[s0 + j, 1]
-        e[ne, 2] = sc[s0 + jb, 0]
-        e[ne, 3] = sc[s0 + jb, 1]
-        ne += 1
-        j = jb
-    return winding_area(e, ne)
+    return winding_area(e, _piece_edges(rc, r0, n, sc, s0, m, p, q, ap, aq, e, 0))
 
 
 @kernel(F64(I64, I64, I64), inline="always")

@@ -209,13 +209,14 @@ def _others_conflicts(rc, r0, n, sc, s0, m, wi, wf, parent, npc):
     return True
 
 
-@kernel(I64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, I64, I64, _W2, I64))
-def _add_run_edges(rc, r0, n, sc, s0, m, wi, t, root, e, ne):
-    """Append run t's piece (raw ap..aq, simplified q back to p) to ``e``."""
-    b = _NI * t
-    p = wi[b + _P]
-    q = wi[b + _Q]
-    for kk in range(wi[b + _AP], wi[b + _AQ]):
+@kernel(I64(I64_2D, I64, I64, I64_2D, I64, I64, I64, I64, I64, I64, _W2, I64))
+def _piece_edges(rc, r0, n, sc, s0, m, p, q, ap, aq, e, ne):
+    """Append the piece raw ``ap..aq``, then simplified ``q`` back to ``p``, to ``e``.
+
+    Rows of ``e`` are edges (x0, y0, x1, y1), written from row ``ne``; returns the
+    new row count.
+    """
+    for kk in range(ap, aq):
         k = kk if kk < n else kk - n
         k1 = k + 1 if k + 1 < n else 0
         e[ne, 0] = rc[r0 + k, 0]
@@ -233,3 +234,11 @@ def _add_run_edges(rc, r0, n, sc, s0, m, wi, t, root, e, ne):
         ne += 1
         j = jb
     return ne
+
+
+@kernel(I64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, I64, I64, _W2, I64))
+def _add_run_edges(rc, r0, n, sc, s0, m, wi, t, root, e, ne):
+    """Append run t's piece (raw ap..aq, simplified q back to p) to ``e``."""
+    b = _NI * t
+    return _piece_edges(rc, r0, n, sc, s0, m, wi[b + _P], wi[b + _Q], wi[b + _AP],
+                        wi[b + _AQ], e, ne)
