@@ -24,6 +24,7 @@ from vecslice.cura_slicing import NO_COMPENSATION, CuraLayers, concat_layers, cu
 from vecslice.layers import layer_heights
 from vecslice.parts import apply_slicing_tolerance, make_parts
 from vecslice.paths import LayerPaths
+from vecslice.pipeline import _keep_rings
 from vecslice.settings import SliceSettings
 from vecslice.simplify import simplify_rings
 
@@ -46,17 +47,7 @@ SNAP_DISTANCE = 10
 
 def _select(paths: LayerPaths, keep: NDArray[np.bool_]) -> LayerPaths:
     """The rings of ``paths`` where ``keep``, layers preserved."""
-    idx = np.flatnonzero(keep)
-    lens = np.diff(paths.ring_offsets)[idx]
-    offsets = np.zeros(idx.shape[0] + 1, dtype=np.int64)
-    np.cumsum(lens, out=offsets[1:])
-    items = np.repeat(paths.ring_offsets[idx] - offsets[:-1], lens) + np.arange(
-        offsets[-1], dtype=np.int64)
-    counts = np.bincount(paths.ring_layer()[idx], minlength=paths.n_layers)
-    layer_offsets = np.zeros(paths.n_layers + 1, dtype=np.int64)
-    np.cumsum(counts, out=layer_offsets[1:])
-    return LayerPaths._trusted(np.ascontiguousarray(paths.coords[items]), offsets,
-                               layer_offsets)
+    return _keep_rings(paths, np.ascontiguousarray(keep, dtype=np.bool_))
 
 
 def _same_layers(

@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vecslice._kernels.contours import vertex_layers
 from vecslice._kernels.cura_loops import basic_loops, emit_rings
-from vecslice._kernels.cura_mesh import face_neighbours, vertex_faces
 from vecslice._kernels.cura_segments import (
     classify_slots,
     face_ranges,
@@ -30,6 +30,7 @@ from vecslice._kernels.cura_segments import (
     order_by_layer,
 )
 from vecslice._kernels.cura_stitch import connect_open_polylines
+from vecslice._threads import run_chunks
 from vecslice.errors import InputValueError
 from vecslice.paths import LayerPaths
 from vecslice.ragged import freeze
@@ -77,20 +78,23 @@ class CuraLayers:
 
 
 def concat_layers(a: LayerPaths, b: LayerPaths) -> LayerPaths:
-    """Per layer, the rings of ``a`` followed by the rings of ``b`` (same layers)."""
-    coords = np.concatenate([a.coords, b.coords])
-    ring_offsets = np.concatenate([a.ring_offsets[:-1],
-                                   b.ring_offsets + a.coords.shape[0]])
-    key = np.concatenate([2 * a.ring_layer(), 2 * b.ring_layer() + 1])
-    order = np.argsort(key, kind="stable")
-    starts = ring_offsets[order]
-    lens = np.diff(np.append(ring_offsets, coords.shape[0]))[order]
-    new_offsets = np.zeros(order.shape[0] + 1, dtype=np.int64)
-    np.cumsum(lens, out=new_offsets[1:])
-    items = np.repeat(starts - new_offsets[:-1], lens) + np.arange(
-        new_offsets[-1], dtype=np.int64)
-    return LayerPaths._trusted(np.ascontiguousarray(coords[items]), new_offsets,
-                               a.layer_offsets + b.layer_offsets)
+    """Per layer, the rings of ``a`` followed by the rings of ``b`` (same layers).
+
+    A layer's rings are one block of vertices, so the result is two block copies
+    per layer (one allocation for all).
+    """
+    a_lo, b_lo = a.layer_offsets, b.layer_offsets
+    a_at, b_at = a.ring_offsets[a_lo], b.ring_offsets[b_lo]  # vertex of each layer
+    a_len, b_len = np.diff(a.ring_offsets), np.diff(b.ring_offsets)
+    blocks: list[NDArray[np.int64]] = [np.empty((0, 2), dtype=np.int64)]
+    lens: list[NDArray[np.int64]] = [np.empty(0, dtype=np.int64)]
+    for k in range(a.n_layers):
+        blocks += [a.coords[a_at[k]:a_at[k + 1]], b.coords[b_at[k]:b_at[k + 1]]]
+        lens += [a_len[a_lo[k]:a_lo[k + 1]], b_len[b_lo[k]:b_lo[k + 1]]]
+    ring_lens = np.concatenate(lens)
+    offsets = np.zeros(ring_lens.shape[0] + 1, dtype=np.int64)
+    np.cumsum(ring_lens, out=offsets[1:])
+    return LayerPaths._trusted(np.concatenate(blocks), offsets, a_lo + b_lo)
 
 
 def cura_raw(
@@ -165,9 +169,8 @@ def cura_raw(
         )
     limit = (int(vertices[:, 2].min()) + 1 if compensate_below is None
              else compensate_below)
-    vf_offsets, vf_faces = vertex_faces(faces, vertices.shape[0])
-    neighbours = face_neighbours(vertices, faces, vf_offsets, vf_faces)
-    vert_layer = np.searchsorted(z, vertices[:, 2], side="left").astype(np.int64)
+    vf_offsets, vf_faces, neighbours = mesh._cura_topology()  # built once per mesh
+    vert_layer = vertex_layers(vertices, z, run=run_chunks)  # searchsorted, left
     face_lo, slot_offsets = face_ranges(vert_layer, faces)
     valid = classify_slots(vertices, faces, z, face_lo, slot_offsets, limit)
     layer_offsets, slot_seg = order_by_layer(valid, face_lo, slot_offsets, n_layers)

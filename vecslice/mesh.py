@@ -122,6 +122,11 @@ class Mesh:
     _twins: NDArray[np.int64] | None = field(
         default=None, init=False, repr=False, compare=False
     )
+    # CuraEngine's vertex -> faces lists and face neighbours (compat="cura"),
+    # likewise built once; see _cura_topology
+    _cura: tuple[NDArray[np.int64], ...] | None = field(
+        default=None, init=False, repr=False, compare=False
+    )
 
     def __init__(
         self,
@@ -145,6 +150,7 @@ class Mesh:
         object.__setattr__(self, "faces", _freeze(np.ascontiguousarray(f)))
         object.__setattr__(self, "load_info", info)
         object.__setattr__(self, "_twins", None)
+        object.__setattr__(self, "_cura", None)
 
     def __getstate__(self) -> tuple[Any, ...]:
         # the cached topology is not pickled: cheaper to rebuild than to ship
@@ -172,6 +178,24 @@ class Mesh:
             twins = _freeze(topology.half_edge_twins(self.faces, n, run=run_chunks))
             object.__setattr__(self, "_twins", twins)
         return twins
+
+    def _cura_topology(self) -> tuple[NDArray[np.int64], ...]:
+        """``(vf_offsets, vf_faces, neighbours)`` of CuraEngine's mesh, built once.
+
+        The faces of each vertex (:func:`vertex_faces`) and the face across each
+        face edge (:func:`face_neighbours`, which also reads the vertices: a moved
+        copy builds its own). Cached like :meth:`_half_edge_twins`.
+        """
+        cura = self._cura
+        if cura is None:
+            from vecslice._kernels.cura_mesh import face_neighbours, vertex_faces
+
+            vf_offsets, vf_faces = vertex_faces(self.faces, self.vertices.shape[0])
+            neighbours = face_neighbours(self.vertices, self.faces, vf_offsets,
+                                         vf_faces)
+            cura = (_freeze(vf_offsets), _freeze(vf_faces), _freeze(neighbours))
+            object.__setattr__(self, "_cura", cura)
+        return cura
 
     @classmethod
     def _trusted(

@@ -134,3 +134,30 @@ def test_vertex_on_a_plane_searches_the_faces_around_it():
 def test_unsorted_planes_rejected():
     with pytest.raises(vs.InputValueError, match="`slice_z` must be sorted"):
         cura_raw(_prism(), [500, 100])
+
+
+def test_cura_topology_is_built_once_per_mesh(monkeypatch):
+    import trimesh
+
+    from vecslice._kernels import cura_mesh
+
+    calls = []
+    build = cura_mesh.face_neighbours
+
+    def counted(vertices, faces, *args):
+        calls.append(len(faces))
+        return build(vertices, faces, *args)
+
+    monkeypatch.setattr(cura_mesh, "face_neighbours", counted)
+    mesh = vs.load_mesh(trimesh.creation.icosphere(subdivisions=2, radius=10),
+                        compat="cura")
+    settings = vs.SliceSettings(compat="cura")
+    first = vs.slice_mesh(mesh, settings)
+    again = vs.slice_mesh(mesh, settings)
+    cura_raw(mesh, [0, 2500])
+    assert calls == [mesh.n_faces]
+    assert first.coords.tolist() == again.coords.tolist()
+    # the neighbours read the vertices: a moved copy and a new mesh build their own
+    vs.slice_mesh(mesh.translated(1000, 0, 0), settings)
+    vs.slice_mesh(vs.Mesh.from_arrays(mesh.vertices, mesh.faces), settings)
+    assert len(calls) == 3
