@@ -142,18 +142,43 @@ def adaptive_layers(
     step == 0``; ``step > 0``; ``max_layers >= 1``; all values below 2**31 in
     size.
     """
+    zmin, zmax, slopes = sort_faces(face_z, slope)
+    return adaptive_layers_sorted(zmin, zmax, slopes, first, hmax, hmin, step,
+                                  threshold, middle, max_layers)
+
+
+@kernel(types.Tuple((I64_1D_OUT, I64_1D_OUT, F64_1D_OUT))(I64_2D, F64_1D))
+def sort_faces(face_z, slope):
+    """``(zmin, zmax, slope)`` of the faces in ascending zmin order (stable).
+
+    What :func:`adaptive_layers_sorted` reads; it depends on the mesh (and its
+    frame) only, so a caller may keep it for every schedule of that mesh.
+    Precondition: F >= 1.
+    """
     n_faces = face_z.shape[0]
     order = zmin_order(face_z[:, 0].copy())
     zmin = np.empty(n_faces, dtype=np.int64)
     zmax = np.empty(n_faces, dtype=np.int64)
     slopes = np.empty(n_faces, dtype=np.float64)
-    max_z = face_z[0, 1]
     for k in range(n_faces):
         f = order[k]
         zmin[k] = face_z[f, 0]
         zmax[k] = face_z[f, 1]
         slopes[k] = slope[f]
-        max_z = max(max_z, zmax[k])
+    return zmin, zmax, slopes
+
+
+@kernel(
+    types.Tuple((I64_1D_OUT, I64_1D_OUT))(
+        I64_1D, I64_1D, F64_1D, I64, I64, I64, I64, I64, B1, I64
+    )
+)
+def adaptive_layers_sorted(
+    zmin, zmax, slopes, first, hmax, hmin, step, threshold, middle, max_layers
+):
+    """:func:`adaptive_layers` on faces already in :func:`sort_faces` order."""
+    n_faces = zmin.shape[0]
+    max_z = zmax.max()
     reach = hmax // 2 if middle else hmax
     last = (hmax - hmin) // step  # index of hmin
     limit = float(threshold)

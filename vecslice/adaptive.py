@@ -13,11 +13,16 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from vecslice._kernels.adaptive import adaptive_layers, lowest_corner_z
+from vecslice._kernels.adaptive import (
+    adaptive_layers_sorted,
+    lowest_corner_z,
+    sort_faces,
+)
 from vecslice._kernels.adaptive import face_slopes as _face_slopes
 from vecslice._validate import check_int, check_layer_count, check_option
 from vecslice.errors import InputTypeError
 from vecslice.mesh import Mesh
+from vecslice.ragged import freeze
 from vecslice.settings import SliceSettings
 
 __all__ = ["FRAMES", "adaptive_layer_heights", "allowed_heights", "face_slopes"]
@@ -149,6 +154,22 @@ def face_slopes(
     return _face_slopes(m.vertices, m.faces, _shift(m, frame))
 
 
+def _sorted_faces(m: Mesh, dz: int) -> tuple[NDArray[Any], ...]:
+    """The faces' z ranges and slopes in zmin order, built once per mesh and frame.
+
+    They depend only on the (immutable) mesh and the frame shift ``dz``, so every
+    later schedule of the mesh (other thresholds, a sweep) reuses them; threads
+    racing on the first call may each build them (equal results).
+    """
+    cached = m._adaptive
+    if cached is not None and cached[0] == dz:
+        return cached[1:]
+    face_z, slope = _face_slopes(m.vertices, m.faces, dz)
+    arrays = tuple(freeze(a) for a in sort_faces(face_z, slope))
+    object.__setattr__(m, "_adaptive", (dz, *arrays))
+    return arrays
+
+
 def adaptive_layer_heights(
     mesh: Any, settings: SliceSettings | None = None, *, frame: Frame = "mesh"
 ) -> Schedule:
@@ -236,14 +257,14 @@ def adaptive_layer_heights(
     s = settings
     hmax, hmin = _height_range(s.layer_height, s.adaptive_variation,
                                s.adaptive_variation_step)
-    face_z, slope = _face_slopes(m.vertices, m.faces, dz)
-    thickness, top = adaptive_layers(
-        face_z, slope, s.initial_layer_height, hmax, hmin,
+    zmin, zmax, slopes = _sorted_faces(m, dz)
+    thickness, top = adaptive_layers_sorted(
+        zmin, zmax, slopes, s.initial_layer_height, hmax, hmin,
         s.adaptive_variation_step, s.adaptive_threshold,
         s.slicing_tolerance == "middle", s.max_layers,
     )
     if len(top) > s.max_layers:  # the kernel stopped one layer past the limit
-        height = int(face_z[:, 1].max())
+        height = int(zmax.max())
         most = 2 + max(0, height - s.initial_layer_height) // hmin
         check_layer_count(
             len(top), s.max_layers,

@@ -127,6 +127,11 @@ class Mesh:
     _cura: tuple[NDArray[np.int64], ...] | None = field(
         default=None, init=False, repr=False, compare=False
     )
+    # the faces in zmin order for adaptive layers, with the frame shift they were
+    # made for; see vecslice.adaptive
+    _adaptive: tuple[Any, ...] | None = field(
+        default=None, init=False, repr=False, compare=False
+    )
 
     def __init__(
         self,
@@ -151,6 +156,7 @@ class Mesh:
         object.__setattr__(self, "load_info", info)
         object.__setattr__(self, "_twins", None)
         object.__setattr__(self, "_cura", None)
+        object.__setattr__(self, "_adaptive", None)
 
     def __getstate__(self) -> tuple[Any, ...]:
         # the cached topology is not pickled: cheaper to rebuild than to ship

@@ -323,3 +323,31 @@ def test_max_layers_stops_the_adaptive_loop():
     assert len(vs.layer_heights(wall, s.replace(max_layers=472))[0]) == 372
     with pytest.raises(vs.SettingsError, match=r"`max_layers` \(5\); got 6 layers"):
         vs.slice_mesh(wall, s.replace(max_layers=5))
+
+
+def test_faces_are_prepared_once_per_mesh_and_frame(monkeypatch):
+    import vecslice.adaptive as adaptive
+
+    calls = []
+    build = adaptive._face_slopes
+
+    def counted(vertices, faces, dz):
+        calls.append(dz)
+        return build(vertices, faces, dz)
+
+    monkeypatch.setattr(adaptive, "_face_slopes", counted)
+    box = trimesh.creation.box((20, 20, 10))
+    box.apply_translation((0, 0, 8))  # floating: the frames differ
+    mesh = vs.load_mesh(box)
+    runs = [(threshold, frame) for frame in ("mesh", "mesh", "bed")
+            for threshold in (50, 200, 400)]
+    got = [adaptive_layer_heights(mesh, vs.SliceSettings(adaptive_threshold=t),
+                                  frame=f) for t, f in runs]
+    assert len(calls) == 2 and calls[0] != calls[1]  # one per frame in a row
+    # every schedule equals that of a fresh mesh (nothing cached)
+    for (t, f), schedule in zip(runs, got, strict=True):
+        fresh = vs.Mesh.from_arrays(mesh.vertices, mesh.faces)
+        want = adaptive_layer_heights(fresh, vs.SliceSettings(adaptive_threshold=t),
+                                      frame=f)
+        for a, b in zip(schedule, want, strict=True):
+            assert a.tolist() == b.tolist()
