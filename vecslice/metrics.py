@@ -150,19 +150,20 @@ class ContourErrors:
 def _compare_rings(
     raw: NDArray[np.int64], raw_offsets: NDArray[np.int64],
     simp: NDArray[np.int64], simp_offsets: NDArray[np.int64],
+    threads: int | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
            NDArray[np.bool_]]:
     """The kernel ``compare_rings`` on threads, same results.
 
     Chunks of ring pairs of about equal vertex counts, each measured by the
-    kernel ``compare_range``.
+    kernel ``compare_range``; up to ``threads`` threads (default numba's).
     """
     n = raw_offsets.shape[0] - 1
     d1, d2 = np.empty(n, dtype=np.float64), np.empty(n, dtype=np.float64)
     area, linear = np.empty(n, dtype=np.float64), np.zeros(n, dtype=np.bool_)
     run_chunks(lambda r0, r1: compare_range(raw, raw_offsets, simp, simp_offsets,
                                             r0, r1, d1, d2, area, linear),
-               chunk_bounds(raw_offsets + simp_offsets))
+               chunk_bounds(raw_offsets + simp_offsets, threads), threads)
     return d1, d2, area, linear
 
 
@@ -216,9 +217,12 @@ def contour_errors(raw: LayerPaths, simplified: LayerPaths) -> ContourErrors:
 
 
 def _contour_errors(raw: LayerPaths, simplified: LayerPaths,
-                    raw_area_um2: NDArray[np.float64] | None = None
-                    ) -> ContourErrors:
-    """:func:`contour_errors`, given the raw layers' areas (µm²) if known."""
+                    raw_area_um2: NDArray[np.float64] | None = None,
+                    threads: int | None = None) -> ContourErrors:
+    """:func:`contour_errors`, given the raw layers' areas (µm²) if known.
+
+    ``threads``: at most this many threads (default numba's).
+    """
     raw = _check_layer_paths(raw, "raw")
     simplified = _check_layer_paths(simplified, "simplified")
     if raw.n_layers != simplified.n_layers or not np.array_equal(
@@ -230,7 +234,8 @@ def _contour_errors(raw: LayerPaths, simplified: LayerPaths,
             f"{simplified.n_layers} layers, {simplified.n_rings} rings"
         )
     d1, d2, area, linear = _compare_rings(
-        raw.coords, raw.ring_offsets, simplified.coords, simplified.ring_offsets
+        raw.coords, raw.ring_offsets, simplified.coords, simplified.ring_offsets,
+        threads,
     )
     return ContourErrors(
         raw_to_simplified_um=d1,

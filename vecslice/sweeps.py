@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 import time
 from collections.abc import Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -215,6 +216,38 @@ def _prepare(source: Any, scale: float) -> _Prepared:
     return _Prepared(mesh, "", time.perf_counter() - t)
 
 
+def _errors(raw: Any, cleaned: tuple[Any, Any], raw_area_um2: Any = None,
+            threads: int | None = None) -> Any:
+    """The contour errors of ``cleaned`` (``_clean_closed``'s rings) against ``raw``."""
+    from vecslice.metrics import _contour_errors
+    from vecslice.paths import LayerPaths
+
+    coords, offsets = cleaned
+    return _contour_errors(
+        LayerPaths._trusted(raw.coords, raw.ring_offsets, raw.layer_offsets),
+        LayerPaths._trusted(coords, offsets, raw.layer_offsets.copy()),
+        raw_area_um2, threads,
+    )
+
+
+def _model(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
+           settings: SliceSettings, cleaned: tuple[Any, Any]) -> Any:
+    """:func:`vecslice.slice_mesh`'s model, from its simplified rings onwards."""
+    from vecslice.parts import apply_slicing_tolerance, make_parts
+    from vecslice.pipeline import _cleaned
+    from vecslice.storage import SlicedModel
+
+    slice_z, print_z, thickness = schedule
+    loops = _cleaned(raw, settings, *cleaned)
+    loops = apply_slicing_tolerance(loops, settings.slicing_tolerance)
+    parts = make_parts(
+        loops, union_overlapping_volumes=settings.union_overlapping_volumes)
+    open_chains = raw.open.rings_per_layer() if raw.open is not None else None
+    return SlicedModel.from_parts(parts, slice_z=slice_z, print_z=print_z,
+                                  thickness=thickness, open=loops.open,
+                                  open_chains=open_chains, stitched_gaps=stitched)
+
+
 def _variant(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
              settings: SliceSettings, kept: Any = None,
              raw_area_um2: Any = None) -> tuple[Any, Any]:
@@ -223,54 +256,45 @@ def _variant(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
     Returns ``(model, errors)``; ``model`` is what ``slice_mesh`` returns for
     these settings (tests check it). ``raw_area_um2``: the raw layers' areas
     (the same for every combination of a schedule), when the caller has them.
+    The errors are measured on another thread while this one makes the parts.
     """
-    from vecslice.metrics import _contour_errors
-    from vecslice.parts import apply_slicing_tolerance, make_parts
-    from vecslice.paths import LayerPaths
-    from vecslice.pipeline import _clean_closed, _cleaned
-    from vecslice.storage import SlicedModel
+    from vecslice.pipeline import _clean_closed
 
-    slice_z, print_z, thickness = schedule
-    coords, offsets = _clean_closed(raw, settings, kept)
-    # the errors are measured on another thread while this one makes the parts
-    # (manifold3d's union runs on one core; the metrics kernel uses the rest)
+    cleaned = _clean_closed(raw, settings, kept)
     with ThreadPoolExecutor(1, thread_name_prefix="vecslice-metrics") as pool:
-        errors = pool.submit(
-            _contour_errors,
-            LayerPaths._trusted(raw.coords, raw.ring_offsets, raw.layer_offsets),
-            LayerPaths._trusted(coords, offsets, raw.layer_offsets.copy()),
-            raw_area_um2,
-        )
-        loops = _cleaned(raw, settings, coords, offsets)
-        loops = apply_slicing_tolerance(loops, settings.slicing_tolerance)
-        parts = make_parts(
-            loops, union_overlapping_volumes=settings.union_overlapping_volumes)
-        open_chains = raw.open.rings_per_layer() if raw.open is not None else None
-        model = SlicedModel.from_parts(parts, slice_z=slice_z, print_z=print_z,
-                                       thickness=thickness, open=loops.open,
-                                       open_chains=open_chains,
-                                       stitched_gaps=stitched)
+        errors = pool.submit(_errors, raw, cleaned, raw_area_um2)
+        model = _model(raw, stitched, schedule, settings, cleaned)
         return model, errors.result()
+
+
+def _timed(fn: Any, *args: Any) -> tuple[Any, float]:
+    t = time.perf_counter()
+    return fn(*args), time.perf_counter() - t
 
 
 def _rows(prep: _Prepared, mesh_index: int, name: str,
           combos: list[tuple[int, SliceSettings]], speed: float,
           controller_ms: float) -> list[dict[str, Any]]:
-    """All rows of one (mesh, layer schedule) task."""
+    """All rows of one (mesh, layer schedule) task.
+
+    The combinations' stages run as a pipeline on two threads besides this one:
+    while a combination's parts are made here (manifold3d, mostly one core), its
+    errors are measured and the next combination is simplified, so that the
+    cores stay busy; each kernel then runs on one thread.
+    """
     from vecslice._validate import check_layer_count
     from vecslice.layers import layer_heights
-    from vecslice.metrics import move_stats, volume_error
-    from vecslice.pipeline import _kept_loops, slice_mesh
+    from vecslice.pipeline import _clean_closed, _kept_loops
     from vecslice.slicing import _contours
     from vecslice.stitch import stitch
 
-    rows = []
     if prep.error:
         return [_row(mesh_index, name, i, s, None, prep.error) for i, s in combos]
     t = time.perf_counter()
     mesh = prep.mesh
     first = combos[0][1]
     cura = getattr(first, "compat", "vecslice") != "vecslice"
+    raw = stitched = None
     try:
         schedule = layer_heights(mesh, first)
         limit = getattr(first, "max_layers", None)
@@ -282,65 +306,137 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
             raw, stitched = stitch(raw)
     except Exception as exc:
         return [_row(mesh_index, name, i, s, None, _describe(exc)) for i, s in combos]
-    prep_seconds = prep.seconds + time.perf_counter() - t
+    shared = _Shared(mesh, raw, stitched, schedule, mesh.volume,
+                     prep.seconds + time.perf_counter() - t)
+    if cura:  # CuraEngine's own stages: no raw contours to share
+        return [_measured(mesh_index, name, i, s, shared, _cura_model(shared, s),
+                          None, speed, controller_ms) for i, s in combos]
     kept: dict[int, Any] = {}  # perimeter filters, by minimum circumference
-    raw_area = None  # µm², per raw layer: shared by all combinations
-    mesh_volume = mesh.volume
-    for i, s in combos:
+    kept_lock = threading.Lock()
+    raw_area = raw.layer_area2().astype(np.float64) / 2  # µm² per raw layer
+
+    def simplified(s: SliceSettings) -> tuple[Any, float]:
         t = time.perf_counter()
-        try:
-            if cura:  # CuraEngine's own stages: no raw-contour correspondence
-                model, err = slice_mesh(mesh, s), None
-            else:
-                c = s.minimum_polygon_circumference
-                if c not in kept:
-                    kept[c] = _kept_loops(raw, c)
-                if raw_area is None:
-                    raw_area = raw.layer_area2().astype(np.float64) / 2
-                model, err = _variant(raw, stitched, schedule, s, kept[c],
-                                      raw_area)
-            moves = move_stats(model, speed_mm_s=speed, controller_ms=controller_ms,
-                               percentiles=(1, 5, 50))
-            vol = volume_error(model, mesh, _mesh_volume=mesh_volume)
-        except Exception as exc:
-            rows.append(_row(mesh_index, name, i, s, None, _describe(exc)))
-            continue
-        nan = math.nan
-        m = {
-            "layers": model.n_layers,
-            "raw_vertices": int(raw.coords.shape[0]) if err else nan,
-            "vertices": int(model.coords.shape[0]),
-            "parts": model.n_parts,
-            "max_deviation_um": err.max_deviation_um if err else nan,
-            "area_error_um2": err.area_error_um2 if err else nan,
-            "relative_area_error": err.relative_area_error if err else nan,
-            "volume_error_mm3": vol.volume_error_mm3,
-            "short_move_fraction": moves.short_move_fraction,
-            "moves_per_s": moves.moves_per_s,
-            "raw_rings": raw.n_rings if err else nan,
-            "rings": model.n_rings,
-            "dropped_rings": int(err.dropped.sum()) if err else nan,
-            "rings_beyond_max_deviation": (err.rings_beyond(s.max_deviation)
-                                           if err else nan),
-            "raw_to_simplified_um": _nanmax(err.raw_to_simplified_um) if err else nan,
-            "simplified_to_raw_um": _nanmax(err.simplified_to_raw_um) if err else nan,
-            "xor_sweep_rings": int((~err.linear).sum()) if err else nan,
-            "relative_volume_error": vol.relative_volume_error,
-            "mesh_volume_mm3": vol.mesh_volume_mm3,
-            "stack_height_um": vol.stack_height_um,
-            "height_um": vol.height_um,
-            "open_chains": int(model.open_chains.sum()),
-            "moves": moves.moves,
-            "shortest_move_um": moves.shortest_um,
-            "move_p1_um": moves.length_percentiles_um[0],
-            "move_p5_um": moves.length_percentiles_um[1],
-            "move_p50_um": moves.length_percentiles_um[2],
-            "move_p50_ms": moves.duration_percentiles_ms[2],
-            "prep_seconds": prep_seconds,
-        }
-        m["seconds"] = time.perf_counter() - t
-        rows.append(_row(mesh_index, name, i, s, m, ""))
+        c = s.minimum_polygon_circumference
+        with kept_lock:
+            if c not in kept:
+                kept[c] = _kept_loops(raw, c)
+        return _clean_closed(raw, s, kept[c]), time.perf_counter() - t
+
+    def measured(s: SliceSettings, rings: Any) -> tuple[Any, float]:
+        return _timed(_errors, raw, rings[0], raw_area, 1)
+
+    done = []
+    with ThreadPoolExecutor(2, thread_name_prefix="vecslice-sweep") as pool:
+        ahead: dict[int, Any] = {}
+        for n, (i, s) in enumerate(combos):
+            for j in (n, n + 1):  # this combination (if not yet), and the next
+                if j < len(combos) and j not in ahead:
+                    ahead[j] = pool.submit(simplified, combos[j][1])
+            model: Any = None
+            errors: Any = None
+            try:
+                rings = ahead.pop(n).result()
+                errors = pool.submit(measured, s, rings)
+                model = _timed(_model, raw, stitched, schedule, s, rings[0])
+                model = (model[0], model[1] + rings[1])
+            except Exception as exc:
+                model = exc
+            done.append((i, s, model, errors))
+        rows = []
+        for i, s, model, errors in done:
+            if isinstance(model, Exception):
+                rows.append(_row(mesh_index, name, i, s, None, _describe(model)))
+                continue
+            rows.append(_measured(mesh_index, name, i, s, shared, model, errors,
+                                  speed, controller_ms))
     return rows
+
+
+def _cura_model(shared: _Shared, s: SliceSettings) -> Any:
+    """compat="cura": CuraEngine's own stages (no raw-contour correspondence)."""
+    from vecslice.pipeline import slice_mesh
+
+    try:
+        return _timed(slice_mesh, shared.mesh, s)
+    except Exception as exc:
+        return exc
+
+
+@dataclass
+class _Shared:
+    """What every combination of one (mesh, layer schedule) task shares."""
+
+    mesh: Any
+    raw: Any  # stitched raw contours (None in compat="cura")
+    stitched: Any
+    schedule: tuple[Any, Any, Any]
+    mesh_volume: float
+    prep_seconds: float
+
+
+def _measured(mesh_index: int, name: str, i: int, s: SliceSettings,
+              shared: _Shared, model: Any, errors: Any, speed: float,
+              controller_ms: float) -> dict[str, Any]:
+    """One combination's row.
+
+    ``model``: ``(SlicedModel, seconds)`` or the exception that stopped it;
+    ``errors``: the future of ``(ContourErrors, seconds)``, or None (compat
+    "cura"). ``seconds`` sums the combination's own stages (simplify, parts,
+    errors, moves), wherever they ran.
+    """
+    from vecslice.metrics import move_stats, volume_error
+
+    if isinstance(model, Exception):
+        return _row(mesh_index, name, i, s, None, _describe(model))
+    model, seconds = model
+    t = time.perf_counter()
+    raw = shared.raw
+    try:
+        err = None
+        if errors is not None:
+            err, err_seconds = errors.result()
+            seconds += err_seconds
+        moves = move_stats(model, speed_mm_s=speed, controller_ms=controller_ms,
+                           percentiles=(1, 5, 50))
+        vol = volume_error(model, shared.mesh, _mesh_volume=shared.mesh_volume)
+    except Exception as exc:
+        return _row(mesh_index, name, i, s, None, _describe(exc))
+    nan = math.nan
+    m = {
+        "layers": model.n_layers,
+        "raw_vertices": int(raw.coords.shape[0]) if err else nan,
+        "vertices": int(model.coords.shape[0]),
+        "parts": model.n_parts,
+        "max_deviation_um": err.max_deviation_um if err else nan,
+        "area_error_um2": err.area_error_um2 if err else nan,
+        "relative_area_error": err.relative_area_error if err else nan,
+        "volume_error_mm3": vol.volume_error_mm3,
+        "short_move_fraction": moves.short_move_fraction,
+        "moves_per_s": moves.moves_per_s,
+        "raw_rings": raw.n_rings if err else nan,
+        "rings": model.n_rings,
+        "dropped_rings": int(err.dropped.sum()) if err else nan,
+        "rings_beyond_max_deviation": (err.rings_beyond(s.max_deviation)
+                                       if err else nan),
+        "raw_to_simplified_um": _nanmax(err.raw_to_simplified_um) if err else nan,
+        "simplified_to_raw_um": _nanmax(err.simplified_to_raw_um) if err else nan,
+        "xor_sweep_rings": int((~err.linear).sum()) if err else nan,
+        "relative_volume_error": vol.relative_volume_error,
+        "mesh_volume_mm3": vol.mesh_volume_mm3,
+        "stack_height_um": vol.stack_height_um,
+        "height_um": vol.height_um,
+        "open_chains": int(model.open_chains.sum()),
+        "moves": moves.moves,
+        "shortest_move_um": moves.shortest_um,
+        "move_p1_um": moves.length_percentiles_um[0],
+        "move_p5_um": moves.length_percentiles_um[1],
+        "move_p50_um": moves.length_percentiles_um[2],
+        "move_p50_ms": moves.duration_percentiles_ms[2],
+        "prep_seconds": shared.prep_seconds,
+    }
+    m["seconds"] = seconds + time.perf_counter() - t
+    return _row(mesh_index, name, i, s, m, "")
 
 
 def _nanmax(a: Any) -> float:

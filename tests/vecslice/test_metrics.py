@@ -238,7 +238,8 @@ def test_threaded_compare_rings_matches_the_serial_kernel(monkeypatch):
 
     vm = sys.modules["vecslice.metrics"]
     monkeypatch.setattr(vm, "chunk_bounds",
-                        lambda offs: chunk_bounds(offs, threads=2, min_chunk=300))
+                        lambda offs, threads=None: chunk_bounds(offs, threads=2,
+                                                                min_chunk=300))
     rng = np.random.default_rng(5)
     lengths = rng.integers(3, 150, 300)
     offs = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
