@@ -37,6 +37,8 @@ from .pieces import (
     _AP,
     _AQ,
     _AREA,
+    _GX,
+    _GY,
     _H,
     _KIND,
     _KMAX,
@@ -44,6 +46,7 @@ from .pieces import (
     _NI,
     _P,
     _Q,
+    _SIDE,
     _UB,
     _X0,
     _X1,
@@ -54,6 +57,7 @@ from .pieces import (
     _neighbours_apart,
     _others_conflicts,
     _piece_edges,
+    _separator,
 )
 from .planar import _point_segment, _to_ring, winding_area
 
@@ -231,14 +235,17 @@ def _two_chain_area(rc, r0, n, sc, s0, m, p, q, ap, aq):
     return acc / np.float64(len2)
 
 
-@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, _W2))
-def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, I64, _W2))
+def _run(rc, r0, n, sc, s0, m, wi, wf, t, npc, e):
     """Measure run ``t`` (simplified p..q, raw ap..aq): deviation bound, piece area.
 
     Fills the run's records: ``_UB`` the largest distance bound of its raw
     vertices (to the simplified edges p..q) and ``_KMAX`` that vertex; ``_H`` a
     radius around the segment s_p-s_q holding the piece; the box of that
-    neighbourhood; ``_KIND`` 1 for a single monotone chord, else 2. Returns the
+    neighbourhood; ``_KIND`` 1 for a single monotone chord, else 2; ``_SIDE``
+    the run's side of the separating lines at p and q (every vertex tested, see
+    ``pieces._neighbours_apart``; ``_GX``, ``_GY`` of runs t and t+1 must be
+    set). Returns the
     piece's ``∫|w|``, or -1 where the sweep must measure it (the caller calls
     ``_piece_area``: a call of a kernel taking arrays from an inlined helper
     costs reference count updates per run).
@@ -256,6 +263,16 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
     ey = by - ay
     len2 = ex * ex + ey * ey
     single = q == (p + 1 if p + 1 < m else 0) and len2 > 0
+    # side tests: cross(g_p, v - s_p) <= 0 and cross(g_q, v - s_q) >= 0 for all
+    # vertices v; with w = v - s_p, the latter is cross(g_q, w) >= cross(g_q, e)
+    bn = _NI * (t + 1 if t + 1 < npc else 0)
+    gpx = wi[b + _GX]
+    gpy = wi[b + _GY]
+    gqx = wi[bn + _GX]
+    gqy = wi[bn + _GY]
+    kq = gqx * ey - gqy * ex
+    spmax = np.int64(0)  # at v = s_p
+    sqmin = np.int64(0)
     area = 0.0
     kmax = ap
     mono = False
@@ -284,6 +301,8 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
             qy = vy - ay
             d1 = qx * ex + qy * ey
             c1 = ex * qy - ey * qx
+            spmax = max(spmax, gpx * qy - gpy * qx)
+            sqmin = min(sqmin, gqx * qy - gqy * qx)
             if d1 <= 0:
                 e2 = qx * qx + qy * qy
                 if e2 > e2max:
@@ -332,16 +351,24 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
         h = np.inf  # no band: the piece has no single chord
         for kk in range(ap, aq + 1):
             k = kk if kk < n else kk - n
-            x0 = min(x0, rc[r0 + k, 0])
-            y0 = min(y0, rc[r0 + k, 1])
-            x1 = max(x1, rc[r0 + k, 0])
-            y1 = max(y1, rc[r0 + k, 1])
+            vx = rc[r0 + k, 0]
+            vy = rc[r0 + k, 1]
+            x0 = min(x0, vx)
+            y0 = min(y0, vy)
+            x1 = max(x1, vx)
+            y1 = max(y1, vy)
+            spmax = max(spmax, gpx * (vy - ay) - gpy * (vx - ax))
+            sqmin = min(sqmin, gqx * (vy - ay) - gqy * (vx - ax))
         j = p
         while j != q:
-            x0 = min(x0, sc[s0 + j, 0])
-            y0 = min(y0, sc[s0 + j, 1])
-            x1 = max(x1, sc[s0 + j, 0])
-            y1 = max(y1, sc[s0 + j, 1])
+            vx = sc[s0 + j, 0]
+            vy = sc[s0 + j, 1]
+            x0 = min(x0, vx)
+            y0 = min(y0, vy)
+            x1 = max(x1, vx)
+            y1 = max(y1, vy)
+            spmax = max(spmax, gpx * (vy - ay) - gpy * (vx - ax))
+            sqmin = min(sqmin, gqx * (vy - ay) - gqy * (vx - ax))
             j = j + 1 if j + 1 < m else 0
         area = _two_chain_area(rc, r0, n, sc, s0, m, p, q, ap, aq)
     wi[b + _X0] = x0
@@ -350,6 +377,7 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, e):
     wi[b + _Y1] = y1
     wi[b + _KIND] = 1 if single and mono else 2  # the caller sets 0 for no area
     wi[b + _KMAX] = kmax
+    wi[b + _SIDE] = (1 if spmax <= 0 else 0) + (2 if sqmin >= kq else 0)
     wf[_NF * t + _UB] = ub
     wf[_NF * t + _H] = h
     return area
@@ -478,7 +506,6 @@ def _compare_one(rc, r0, n, sc, s0, m, anchor, wi, wf, ub, e):
     if npc < 2:  # no usable correspondence: all pairs, and the sweep
         return (_all_pairs(rc, r0, n, sc, s0, m), _all_pairs(sc, s0, m, rc, r0, n),
                 _ring_area(rc, r0, n, sc, s0, m, e), False)
-    total = 0.0
     p = first
     for t in range(npc):
         q = p + 1 if p + 1 < m else 0
@@ -489,15 +516,21 @@ def _compare_one(rc, r0, n, sc, s0, m, anchor, wi, wf, ub, e):
         wi[b + _Q] = q
         wi[b + _AP] = anchor[p]
         wi[b + _AQ] = anchor[q] if anchor[q] > anchor[p] else anchor[q] + n
-        area = _run(rc, r0, n, sc, s0, m, wi, wf, t, e)
+        gx, gy = _separator(sc, s0, m, p)
+        wi[b + _GX] = gx
+        wi[b + _GY] = gy
+        p = q
+    total = 0.0
+    for t in range(npc):
+        b = _NI * t
+        area = _run(rc, r0, n, sc, s0, m, wi, wf, t, npc, e)
         if area < 0.0:  # a chain folds back along the chord: the sweep
-            area = _piece_area(rc, r0, n, sc, s0, m, p, wi[b + _Q], wi[b + _AP],
-                               wi[b + _AQ], e)
+            area = _piece_area(rc, r0, n, sc, s0, m, wi[b + _P], wi[b + _Q],
+                               wi[b + _AP], wi[b + _AQ], e)
         if not area > 0.0:
             wi[b + _KIND] = 0
         wf[_NF * t + _AREA] = area
         total += area
-        p = q
     d1 = _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc)
     d2 = _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub)
     # runs that may overlap (neighbours no line separates, others too close)
@@ -509,7 +542,7 @@ def _compare_one(rc, r0, n, sc, s0, m, anchor, wi, wf, ub, e):
     for t in range(npc):
         tl = t - 1 if t > 0 else npc - 1
         if (wi[_NI * t + _KIND] != 0 and wi[_NI * tl + _KIND] != 0
-                and not _neighbours_apart(rc, r0, n, sc, s0, m, wi, wf, t, npc)):
+                and not _neighbours_apart(wi, t, npc)):
             rt = _find(parent, t)
             rl = _find(parent, tl)
             if rt != rl:

@@ -23,70 +23,25 @@ _WF = types.float64[::1]
 _SCALE = 1048576.0  # 2**20: integer bisector directions, products stay < 2**53
 
 # per-run integer record in ``wi`` (_NI entries) and float record in ``wf`` (_NF)
+# (_GX, _GY: the separating direction at p, :func:`_separator`; _SIDE: the side
+# tests of :func:`_neighbours_apart`)
 _P, _Q, _AP, _AQ, _KIND, _X0, _Y0, _X1, _Y1, _KMAX = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9
-_NI = 10
+_GX, _GY, _SIDE = 10, 11, 12
+_NI = 13
 _UB, _H, _AREA = 0, 1, 2
 _NF = 3
 
 
-@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, B1, I64, I64, I64,
-           I64, I64))
-def _one_side(rc, r0, n, sc, s0, m, wi, wf, t, at_q, ox, oy, dx, dy, sigma):
-    """Every vertex v of run t has ``sigma * cross(d, v - o) >= 0``.
+@kernel(inline="always")
+def _separator(sc, s0, m, v):
+    """Integer direction g of a line through simplified vertex v parting its edges.
 
-    ``o`` is the run's end p (or q with ``at_q``). A monotone single-chord run
-    lies within H of its chord, its vertices ordered along it: scanning from
-    ``o`` stops once the distance along the chord alone keeps the rest on the
-    right side (float, with a safety margin; a vertex nearer is tested exactly).
+    The line is the bisector of the two simplified edges at v, as an integer
+    direction of length about 2**20, oriented so that the edge before v lies
+    where ``cross(g, x - s_v) > 0`` and the edge after where it is < 0.
+    ``(0, 0)`` when no such line is found (a zero-length edge, the ring
+    reversing at v, or the rounded direction not parting the two edges).
     """
-    b = _NI * t
-    p = wi[b + _P]
-    q = wi[b + _Q]
-    ap = wi[b + _AP]
-    aq = wi[b + _AQ]
-    reach = np.inf
-    ex = np.int64(0)
-    ey = np.int64(0)
-    if wi[b + _KIND] == 1:
-        far = q if not at_q else p
-        ex = sc[s0 + far, 0] - ox
-        ey = sc[s0 + far, 1] - oy
-        fd = np.float64(dx)
-        fe = np.float64(dy)
-        len_e = np.sqrt(np.float64(ex * ex + ey * ey))
-        a = sigma * (fd * np.float64(ey) - fe * np.float64(ex)) / len_e  # d x u
-        bb = abs(fd * np.float64(ex) + fe * np.float64(ey)) / len_e  # |d x n|
-        if a > 0.0:
-            # safe once dot(v - o, e) / |e| * a > H * bb
-            reach = wf[_NF * t + _H] * bb / a * len_e * (1.0 + 1e-9) + 1.0
-    for i in range(aq - ap + 1):
-        kk = aq - i if at_q else ap + i
-        k = kk if kk < n else kk - n
-        vx = rc[r0 + k, 0] - ox
-        vy = rc[r0 + k, 1] - oy
-        if sigma * (dx * vy - dy * vx) < 0:
-            return False
-        if reach < np.inf and np.float64(vx * ex + vy * ey) > reach:
-            return True
-    j = p + 1 if p + 1 < m else 0
-    while j != q:
-        v = dx * (sc[s0 + j, 1] - oy) - dy * (sc[s0 + j, 0] - ox)
-        if sigma * v < 0:
-            return False
-        j = j + 1 if j + 1 < m else 0
-    return True
-
-
-@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, I64))
-def _neighbours_apart(rc, r0, n, sc, s0, m, wi, wf, t, npc):
-    """Runs t-1 and t lie on either side of a line through their shared vertex.
-
-    The line is the bisector of the two simplified edges there, as an integer
-    direction; the test is exact (a run's piece lies in the convex hull of its
-    vertices).
-    """
-    tl = t - 1 if t > 0 else npc - 1
-    v = wi[_NI * t + _P]
     vb = v - 1 if v > 0 else m - 1
     va = v + 1 if v + 1 < m else 0
     ox = sc[s0 + v, 0]
@@ -98,22 +53,39 @@ def _neighbours_apart(rc, r0, n, sc, s0, m, wi, wf, t, npc):
     lu = np.sqrt(ux * ux + uy * uy)
     lw = np.sqrt(wx * wx + wy * wy)
     if lu == 0.0 or lw == 0.0:
-        return False
+        return np.int64(0), np.int64(0)
     bx = ux / lu + wx / lw
     by = uy / lu + wy / lw
     lb = np.sqrt(bx * bx + by * by)
     if lb < 1e-6:  # the ring reverses here: no separating line
-        return False
+        return np.int64(0), np.int64(0)
     dx = np.int64(np.rint(-by / lb * _SCALE))
     dy = np.int64(np.rint(bx / lb * _SCALE))
     sb = dx * (sc[s0 + vb, 1] - oy) - dy * (sc[s0 + vb, 0] - ox)
     sa = dx * (sc[s0 + va, 1] - oy) - dy * (sc[s0 + va, 0] - ox)
     if sb == 0 or sa == 0 or (sb > 0) == (sa > 0):
-        return False
-    sigma = np.int64(1) if sb > 0 else np.int64(-1)
-    return (_one_side(rc, r0, n, sc, s0, m, wi, wf, tl, True, ox, oy, dx, dy, sigma)
-            and _one_side(rc, r0, n, sc, s0, m, wi, wf, t, False, ox, oy, dx, dy,
-                          -sigma))
+        return np.int64(0), np.int64(0)
+    if sb > 0:
+        return dx, dy
+    return -dx, -dy
+
+
+@kernel(inline="always")
+def _neighbours_apart(wi, t, npc):
+    """Runs t-1 and t lie on either side of a line through their shared vertex.
+
+    The line is :func:`_separator` at run t's first vertex p; ``metrics._run``
+    tested every vertex of each run (its raw vertices and its simplified ones)
+    against the lines at both of its ends, exactly in int64, and recorded the
+    outcome in ``_SIDE``: bit 1, all on the side ``cross(g_p, x - s_p) <= 0``
+    (away from the run before); bit 2, all on the side ``cross(g_q, x - s_q)
+    >= 0`` (away from the run after). The test is exact: a run's piece lies in
+    the convex hull of its vertices.
+    """
+    tl = t - 1 if t > 0 else npc - 1
+    b = _NI * t
+    return ((wi[b + _GX] != 0 or wi[b + _GY] != 0) and (wi[b + _SIDE] & 1) != 0
+            and (wi[_NI * tl + _SIDE] & 2) != 0)
 
 
 @kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, I64))
