@@ -131,12 +131,20 @@ def _piece_area(rc, r0, n, sc, s0, m, p, q, ap, aq, e):
 
 @kernel(F64(I64, I64, I64), inline="always")
 def _strip(dd, c0, c1):
-    """``∫ |C| dD`` over a step of ``dd`` from height c0 to c1 (split at C = 0)."""
+    """``∫ |C| dD`` over a step of ``dd`` from height c0 to c1 (split at C = 0).
+
+    Both formulas are evaluated and one selected (no branch to mispredict where
+    the raw chain crosses its chord); each is the same float expression as when
+    it alone was evaluated.
+    """
     f0 = abs(np.float64(c0))
     f1 = abs(np.float64(c1))
-    if (c0 >= 0 and c1 >= 0) or (c0 <= 0 and c1 <= 0):
-        return np.float64(dd) * (f0 + f1) * 0.5
-    return np.float64(dd) * (f0 * f0 + f1 * f1) / (2.0 * (f0 + f1))
+    fd = np.float64(dd)
+    same = fd * (f0 + f1) * 0.5
+    crossing = (c0 ^ c1) < 0 and c0 != 0 and c1 != 0
+    den = 2.0 * (f0 + f1) if crossing else 1.0  # both formulas, no branch
+    split = fd * (f0 * f0 + f1 * f1) / den
+    return split if crossing else same
 
 
 @kernel(F64(F64, F64, F64), inline="always")
@@ -235,8 +243,8 @@ def _two_chain_area(rc, r0, n, sc, s0, m, p, q, ap, aq):
     return acc / np.float64(len2)
 
 
-@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, I64, _W2))
-def _run(rc, r0, n, sc, s0, m, wi, wf, t, npc, e):
+@kernel(inline="always")
+def _run(rc, r0, n, sc, s0, m, wi, wf, t, npc):
     """Measure run ``t`` (simplified p..q, raw ap..aq): deviation bound, piece area.
 
     Fills the run's records: ``_UB`` the largest distance bound of its raw
@@ -247,8 +255,8 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, npc, e):
     ``pieces._neighbours_apart``; ``_GX``, ``_GY`` of runs t and t+1 must be
     set). Returns the
     piece's ``∫|w|``, or -1 where the sweep must measure it (the caller calls
-    ``_piece_area``: a call of a kernel taking arrays from an inlined helper
-    costs reference count updates per run).
+    ``_piece_area``). Inlined into :func:`_compare_one`: a kernel call per run
+    cost reference count updates of its array arguments.
     """
     b = _NI * t
     p = wi[b + _P]
@@ -523,7 +531,7 @@ def _compare_one(rc, r0, n, sc, s0, m, anchor, wi, wf, ub, e):
     total = 0.0
     for t in range(npc):
         b = _NI * t
-        area = _run(rc, r0, n, sc, s0, m, wi, wf, t, npc, e)
+        area = _run(rc, r0, n, sc, s0, m, wi, wf, t, npc)
         if area < 0.0:  # a chain folds back along the chord: the sweep
             area = _piece_area(rc, r0, n, sc, s0, m, wi[b + _P], wi[b + _Q],
                                wi[b + _AP], wi[b + _AQ], e)
