@@ -88,18 +88,25 @@ def _paired(in_seg, in_pair, out_face, s):
     return -1 if j < 0 else out_face[j]
 
 
-_PLAN = types.Tuple((types.int32[::1], I64_1D_OUT, I64_1D_OUT, I64, I64))
+BLOCK_BITS = 4
+BLOCK = 1 << BLOCK_BITS  # faces per block of the plan's block summaries
+
+
+_PLAN = types.Tuple((types.int32[::1], I64_1D_OUT, I64_1D_OUT, I64, I64,
+                     types.int32[:, ::1]))
 
 
 @kernel(_PLAN(I64_2D, I64_1D, I64_1D, I64))
 def _segment_plan(faces, twin, vert_layer, n_planes):
     """Where each face's segments go, segments per plane, open ends counted.
 
-    Returns ``(face_lo, face_offsets, per_plane, n_in, n_out)``: face ``f`` crosses
-    planes ``face_lo[f]`` and up, its segments are
+    Returns ``(face_lo, face_offsets, per_plane, n_in, n_out, blocks)``: face
+    ``f`` crosses planes ``face_lo[f]`` and up, its segments are
     ``face_offsets[f]:face_offsets[f + 1]``; ``per_plane[k]`` is the number of
     segments on plane ``k``; ``n_in`` (``n_out``) segments start (end) on an edge
-    without a twin.
+    without a twin; the faces ``BLOCK * b`` up to ``BLOCK * (b + 1)`` cross
+    planes ``blocks[b, 0]`` up to ``blocks[b, 1]`` only (empty when low >= high),
+    so that a chunk of planes skips the blocks that cannot meet it.
     """
     n_faces = faces.shape[0]
     down_of = np.array(DOWN_EDGE, dtype=np.int64)
@@ -107,10 +114,16 @@ def _segment_plan(faces, twin, vert_layer, n_planes):
     face_lo = np.empty(n_faces, dtype=np.int32)
     face_offsets = np.empty(n_faces + 1, dtype=np.int64)
     per_plane = np.zeros(n_planes + 1, dtype=np.int64)
+    blocks = np.empty(((n_faces + BLOCK - 1) // BLOCK, 2), dtype=np.int32)
     face_offsets[0] = 0
     n_in = 0
     n_out = 0
+    b_lo = n_planes
+    b_hi = 0
     for f in range(n_faces):
+        if f & (BLOCK - 1) == 0:  # a block starts
+            b_lo = n_planes
+            b_hi = 0
         l0 = vert_layer[faces[f, 0]]
         l1 = vert_layer[faces[f, 1]]
         l2 = vert_layer[faces[f, 2]]
@@ -118,6 +131,11 @@ def _segment_plan(faces, twin, vert_layer, n_planes):
         hi = max(l0, max(l1, l2))
         face_lo[f] = lo
         face_offsets[f + 1] = face_offsets[f] + hi - lo
+        if hi > lo:
+            b_lo = min(b_lo, lo)
+            b_hi = max(b_hi, hi)
+        blocks[f >> BLOCK_BITS, 0] = b_lo  # (rewritten until the block ends)
+        blocks[f >> BLOCK_BITS, 1] = b_hi
         if hi > lo:
             per_plane[lo] += 1
             per_plane[hi] -= 1
@@ -130,7 +148,7 @@ def _segment_plan(faces, twin, vert_layer, n_planes):
                         n_out += 1
     for k in range(n_planes):
         per_plane[k + 1] += per_plane[k]
-    return face_lo, face_offsets, per_plane[:n_planes].copy(), n_in, n_out
+    return face_lo, face_offsets, per_plane[:n_planes].copy(), n_in, n_out, blocks
 
 
 _ENDS = types.Tuple((I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT,
@@ -325,20 +343,24 @@ def _trace_open(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
     return open_coords, open_offsets, open_rings, chain_segs
 
 
+_I32_2D = types.Array(types.int32, 2, "C", readonly=True)
+
+
 @kernel(
     types.void(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, _I32_1D, I64_1D,
-               I64_1D, I64, I64, I64_1D, I64_1D, I64_1D, _U8_W, I64_2D_OUT, _U8_W,
-               _I64_W, _U8_W),
+               _I32_2D, I64_1D, I64, I64, I64_1D, I64_1D, I64_1D, _U8_W,
+               I64_2D_OUT, _U8_W, _I64_W, _U8_W),
 )
 def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
-                  face_offsets, layer_start, k0, k1, in_seg, in_pair, out_face,
-                  out_visited, out_coords, out_ring_start, out_rings_of,
+                  face_offsets, blocks, layer_start, k0, k1, in_seg, in_pair,
+                  out_face, out_visited, out_coords, out_ring_start, out_rings_of,
                   out_broken):
     """Trace the closed loops of planes ``k0:k1`` (one chunk; chunks may run at once).
 
-    Faces are scanned in order and a loop is traced from every segment not yet
-    visited, writing its points at its plane's cursor (which starts at
-    ``layer_start[out_layer[k]]``) and flagging its first point in
+    Faces are scanned in order (skipping the blocks of faces that do not meet
+    the chunk, by the plan's ``blocks``) and a loop is traced from every
+    segment not yet visited, writing its points at its plane's cursor (which
+    starts at ``layer_start[out_layer[k]]``) and flagging its first point in
     ``out_ring_start``. A chunk writes only its planes' segments and vertices.
     """
     if k1 <= k0:
@@ -349,47 +371,50 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
     cursor = np.empty(k1 - k0, dtype=np.int64)
     for k in range(k0, k1):
         cursor[k - k0] = layer_start[out_layer[k]]
-    for f0 in range(n_faces):
-        lo0 = np.int64(face_lo[f0])
-        hi0 = lo0 + face_offsets[f0 + 1] - face_offsets[f0]
-        for k in range(max(lo0, k0), min(hi0, k1)):
-            if out_visited[face_offsets[f0] + k - lo0]:
-                continue
-            zk = z[k]
-            pos = cursor[k - k0]
-            out_ring_start[pos] = 1
-            out_rings_of[k] += 1
-            f = f0
-            while True:
-                p0 = faces[f, 0]
-                p1 = faces[f, 1]
-                p2 = faces[f, 2]
-                l0 = vert_layer[p0]
-                l1 = vert_layer[p1]
-                l2 = vert_layer[p2]
-                s = face_offsets[f] + k - min(l0, min(l1, l2))
-                if out_visited[s]:
-                    break
-                out_visited[s] = 1
-                code = _code(l0, l1, l2, k)
-                jd = down_of[code]
-                ju = up_of[code]
-                # jd is unpredictable along a loop: select, don't branch
-                pa = p0 if jd == 0 else (p1 if jd == 1 else p2)
-                pb = p1 if jd == 0 else (p2 if jd == 1 else p0)
-                x, y = _point(vertices, pa, pb, zk)
-                out_coords[pos, 0] = x
-                out_coords[pos, 1] = y
-                pos += 1
-                tw = twin[3 * f + ju]
-                if tw >= 0:
-                    f = tw // 3
-                else:
-                    f = _paired(in_seg, in_pair, out_face, s)
-                    if f < 0:  # cannot happen: only chains end
-                        out_broken[k] = 1
+    for blk in range(blocks.shape[0]):
+        if blocks[blk, 0] >= k1 or blocks[blk, 1] <= k0:
+            continue  # no face of this block meets the chunk's planes
+        for f0 in range(BLOCK * blk, min(BLOCK * (blk + 1), n_faces)):
+            lo0 = np.int64(face_lo[f0])
+            hi0 = lo0 + face_offsets[f0 + 1] - face_offsets[f0]
+            for k in range(max(lo0, k0), min(hi0, k1)):
+                if out_visited[face_offsets[f0] + k - lo0]:
+                    continue
+                zk = z[k]
+                pos = cursor[k - k0]
+                out_ring_start[pos] = 1
+                out_rings_of[k] += 1
+                f = f0
+                while True:
+                    p0 = faces[f, 0]
+                    p1 = faces[f, 1]
+                    p2 = faces[f, 2]
+                    l0 = vert_layer[p0]
+                    l1 = vert_layer[p1]
+                    l2 = vert_layer[p2]
+                    s = face_offsets[f] + k - min(l0, min(l1, l2))
+                    if out_visited[s]:
                         break
-            cursor[k - k0] = pos
+                    out_visited[s] = 1
+                    code = _code(l0, l1, l2, k)
+                    jd = down_of[code]
+                    ju = up_of[code]
+                    # jd is unpredictable along a loop: select, don't branch
+                    pa = p0 if jd == 0 else (p1 if jd == 1 else p2)
+                    pb = p1 if jd == 0 else (p2 if jd == 1 else p0)
+                    x, y = _point(vertices, pa, pb, zk)
+                    out_coords[pos, 0] = x
+                    out_coords[pos, 1] = y
+                    pos += 1
+                    tw = twin[3 * f + ju]
+                    if tw >= 0:
+                        f = tw // 3
+                    else:
+                        f = _paired(in_seg, in_pair, out_face, s)
+                        if f < 0:  # cannot happen: only chains end
+                            out_broken[k] = 1
+                            break
+                cursor[k - k0] = pos
 
 
 def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
@@ -418,7 +443,7 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
     ``out_layer`` a permutation of ``range(len(z))``; |coordinates| < 2**30.
     """
     n_planes = z.shape[0]
-    face_lo, face_offsets, per_plane, n_in, n_out = _segment_plan(
+    face_lo, face_offsets, per_plane, n_in, n_out, blocks = _segment_plan(
         faces, twin, vert_layer, n_planes)
     n_seg = int(face_offsets[-1])
     visited = np.zeros(n_seg, dtype=np.uint8)
@@ -458,7 +483,7 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
 
     def closed(k0, k1):
         _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
-                      face_offsets, layer_start, k0, k1, in_seg, in_pair,
+                      face_offsets, blocks, layer_start, k0, k1, in_seg, in_pair,
                       out_face, visited, coords, ring_start, rings_of, broken)
 
     run(closed, bounds)

@@ -531,9 +531,11 @@ def sweep(
         ring XOR area and ``relative_area_error`` that over the net raw area;
         ``volume_error_mm3`` the staircase error (:func:`vecslice.metrics.
         volume_error`); ``short_move_fraction`` and ``moves_per_s`` come from
-        :func:`vecslice.metrics.move_stats`; ``seconds`` is the wall time of the
-        combination's own stages (``prep_seconds``: its task's load, topology and
-        raw contours). With a client the table is the same apart from times.
+        :func:`vecslice.metrics.move_stats`; ``seconds`` sums the times of the
+        combination's own stages (simplification, union, metrics; they overlap
+        with other combinations' stages, so the column adds up to more than the
+        sweep's wall time; ``prep_seconds``: its task's load, topology and raw
+        contours). With a client the table is the same apart from times.
         With ``compat="cura"`` the model comes from CuraEngine's own stages
         (:func:`vecslice.slice_mesh`) and the contour-error columns are NaN.
 

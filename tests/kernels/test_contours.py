@@ -86,3 +86,36 @@ def test_vertex_layers_in_chunks_on_threads(n_planes):
     expect = np.searchsorted(z, v[:, 2], side="left")
     for run in (run_reversed, run_chunks):
         assert np.array_equal(vertex_layers(v, z, run=run), expect)
+
+
+def test_plan_blocks_bound_the_planes_of_their_faces():
+    # the block summaries let a chunk skip faces: each block's (low, high) must
+    # cover the planes of every face in it that crosses any
+    import trimesh
+
+    from vecslice._kernels.contours import BLOCK, _segment_plan
+
+    m = trimesh.creation.icosphere(4, radius=10_000)
+    v = np.rint(m.vertices).astype(np.int64)
+    f = m.faces.astype(np.int64)
+    z = np.arange(-9_000, 9_001, 700, dtype=np.int64)
+    vl = np.searchsorted(z, v[:, 2], side="left").astype(np.int64)
+    face_lo, face_offsets, _, _, _, blocks = _segment_plan(
+        f, half_edge_twins(f, len(v)), vl, len(z))
+    n = np.diff(face_offsets)
+    assert len(blocks) == -(-len(f) // BLOCK)
+    for b in range(len(blocks)):
+        sl = slice(b * BLOCK, (b + 1) * BLOCK)
+        crossing = n[sl] > 0
+        if crossing.any():
+            assert blocks[b, 0] == face_lo[sl][crossing].min()
+            assert blocks[b, 1] == (face_lo[sl] + n[sl])[crossing].max()
+        else:
+            assert blocks[b, 0] >= blocks[b, 1]
+    # and tracing in many chunks (most blocks skipped by most) changes nothing
+    out = np.arange(len(z), dtype=np.int64)
+    one = trace_contours(v, f, half_edge_twins(f, len(v)), vl, z, out, 1)
+    many = trace_contours(v, f, half_edge_twins(f, len(v)), vl, z, out, 13,
+                          run=run_chunks)
+    assert all(np.array_equal(a, b) for a, b in zip(one, many))
+    assert all(np.array_equal(a, b) for a, b in zip(one, chained(v, f, z, out)))
