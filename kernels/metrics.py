@@ -59,7 +59,7 @@ from .pieces import (
     _piece_edges,
     _separator,
 )
-from .planar import _point_segment, _to_ring, _to_ring_from, winding_area
+from .planar import _point_segment, _to_ring, winding_area
 
 _W1 = types.int64[::1]
 _W2 = types.int64[:, ::1]
@@ -409,8 +409,7 @@ def _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc):
     if bound == 0.0:
         return 0.0
     k = wi[_NI * top + _KMAX]
-    # bound is the distance from vertex k to its run's edges, some of the ring's
-    best = _to_ring_from(rc[r0 + k, 0], rc[r0 + k, 1], sc, s0, m, bound, -1.0)
+    best = _to_ring(rc[r0 + k, 0], rc[r0 + k, 1], sc, s0, m)
     if best == bound:
         return best
     keys = np.empty(npc, np.float64)
@@ -437,8 +436,8 @@ def _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc):
                 j = j1
                 if j == q:
                     break
-            if u > best:  # (u: to the run's edges; stop once not above best)
-                best = max(best, _to_ring_from(px, py, sc, s0, m, u, best))
+            if u > best:
+                best = max(best, _to_ring(px, py, sc, s0, m))
     return best
 
 
@@ -473,8 +472,7 @@ def _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub):
         ub[p] = 0.0
     if top < 0 or ub[top] == 0.0:
         return 0.0
-    # ub: the distance to the run's raw edges, some of the ring's
-    best = _to_ring_from(sc[s0 + top, 0], sc[s0 + top, 1], rc, r0, n, ub[top], -1.0)
+    best = _to_ring(sc[s0 + top, 0], sc[s0 + top, 1], rc, r0, n)
     if best == ub[top]:
         return best
     keys = np.empty(m, np.float64)
@@ -485,8 +483,7 @@ def _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub):
         j = order[i]
         if ub[j] <= best:
             break
-        best = max(best, _to_ring_from(sc[s0 + j, 0], sc[s0 + j, 1], rc, r0, n,
-                                       ub[j], best))
+        best = max(best, _to_ring(sc[s0 + j, 0], sc[s0 + j, 1], rc, r0, n))
     return best
 
 

@@ -50,39 +50,6 @@ def _to_ring(px, py, c, start, n):
     return best
 
 
-@kernel(F64(I64, I64, I64_2D, I64, I64, F64, F64), inline="always")
-def _to_ring_from(px, py, c, start, n, best, stop):
-    """``min(best, distance from p to ring c[start:start + n])``, bit for bit.
-
-    ``best`` is inf or the distance (:func:`_point_segment`, same arguments) from
-    p to some edges of the ring, so the result is exactly :func:`_to_ring`'s.
-    Once the minimum is <= ``stop`` it returns early, with a value <= ``stop``.
-    An edge is skipped when the squared distance from p to the edge's bounding
-    box (exact int64; at most the squared distance to the edge) exceeds
-    ``best² (1 + 1e-9)`` in float64: the edge's distance then exceeds best by
-    more than the few roundings of either side (nonzero distances between
-    integer points are >= 2**-32, far from underflow).
-    """
-    lim = best * best * (1.0 + 1e-9)
-    for i in range(n):
-        if best <= stop:
-            return best
-        j = i + 1 if i + 1 < n else 0
-        ax = c[start + i, 0]
-        ay = c[start + i, 1]
-        bx = c[start + j, 0]
-        by = c[start + j, 1]
-        gx = max(min(ax, bx) - px, px - max(ax, bx), np.int64(0))
-        gy = max(min(ay, by) - py, py - max(ay, by), np.int64(0))
-        if np.float64(gx * gx + gy * gy) > lim:
-            continue
-        d = _point_segment(px, py, ax, ay, bx, by)
-        if d < best:
-            best = d
-            lim = best * best * (1.0 + 1e-9)
-    return best
-
-
 @kernel(I64(I64, I64, I64, I64, I64, I64), inline="always")
 def _orient(ax, ay, bx, by, cx, cy):
     """Sign of the turn a -> b -> c (exact)."""
