@@ -28,6 +28,8 @@ _SCALE = 1048576.0  # 2**20: integer bisector directions, products stay < 2**53
 _P, _Q, _AP, _AQ, _KIND, _X0, _Y0, _X1, _Y1, _KMAX = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9
 _GX, _GY, _SIDE = 10, 11, 12
 _NI = 13
+_X_OFF = np.int64(2**30)  # |x| < 2**30: x + _X_OFF is in [1, 2**31)
+_T_MASK = np.int64(2**32 - 1)
 _UB, _H, _AREA = 0, 1, 2
 _NF = 3
 
@@ -132,21 +134,24 @@ def _others_conflicts(rc, r0, n, sc, s0, m, wi, wf, parent, npc):
     apart, or one run's vertices all beyond the other's band, keep two runs
     apart. Returns False when there are too many candidate pairs to test.
     """
+    # runs by box x0, sorted in place after the records (wi has room for
+    # _NI * (n + m + 1) entries; npc <= n): (x0 + 2**30) << 32 | t, both
+    # parts non-negative and t < 2**32. Which pairs are tested, the budget used
+    # and the components joined do not depend on the order among equal x0.
     nz = 0
-    keys = np.empty(npc, np.int64)
-    idx = np.empty(npc, np.int64)
+    base = _NI * npc
     for t in range(npc):
         if wi[_NI * t + _KIND] != 0:
-            keys[nz] = wi[_NI * t + _X0]
-            idx[nz] = t
+            wi[base + nz] = ((wi[_NI * t + _X0] + _X_OFF) << 32) | t
             nz += 1
-    order = np.argsort(keys[:nz])
+    keys = wi[base:base + nz]
+    keys.sort()
     budget = 8 * npc + 64
     for a in range(nz):
-        ti = idx[order[a]]
+        ti = keys[a] & _T_MASK
         bi = _NI * ti
         for c in range(a + 1, nz):
-            tj = idx[order[c]]
+            tj = keys[c] & _T_MASK
             bj = _NI * tj
             if wi[bj + _X0] > wi[bi + _X1]:
                 break
