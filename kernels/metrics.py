@@ -133,9 +133,9 @@ def _piece_area(rc, r0, n, sc, s0, m, p, q, ap, aq, e):
 def _strip(dd, c0, c1):
     """``∫ |C| dD`` over a step of ``dd`` from height c0 to c1 (split at C = 0).
 
-    Both formulas are evaluated and one selected (no branch to mispredict where
-    the raw chain crosses its chord); each is the same float expression as when
-    it alone was evaluated.
+    Both formulas are evaluated and one selected (fewer mispredicted branches
+    where the raw chain crosses its chord: callgrind 3.9M -> 3.4M on five
+    Benchies); each is the same float expression as when it alone was evaluated.
     """
     f0 = abs(np.float64(c0))
     f1 = abs(np.float64(c1))
@@ -273,6 +273,9 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, npc):
     single = q == (p + 1 if p + 1 < m else 0) and len2 > 0
     # side tests: cross(g_p, v - s_p) <= 0 and cross(g_q, v - s_q) >= 0 for all
     # vertices v; with w = v - s_p, the latter is cross(g_q, w) >= cross(g_q, e)
+    # (|g| <= 2**20, |w| < 2**31: exact in int64). A full scan: the former
+    # scans stopped early where a float bound kept the rest on the right side,
+    # which was sound (tests/kernels/test_pieces.py compares both)
     bn = _NI * (t + 1 if t + 1 < npc else 0)
     gpx = wi[b + _GX]
     gpy = wi[b + _GY]
