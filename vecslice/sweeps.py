@@ -309,8 +309,9 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
     shared = _Shared(mesh, raw, stitched, schedule, mesh.volume,
                      prep.seconds + time.perf_counter() - t)
     if cura:  # CuraEngine's own stages: no raw contours to share
-        return [_measured(mesh_index, name, i, s, shared, _cura_model(shared, s),
-                          None, speed, controller_ms) for i, s in combos]
+        return [_measured(mesh_index, name, i, s, _cura_model(shared, s), None,
+                          shared, speed=speed, controller_ms=controller_ms)
+                for i, s in combos]
     kept: dict[int, Any] = {}  # perimeter filters, by minimum circumference
     kept_lock = threading.Lock()
     raw_area = raw.layer_area2().astype(np.float64) / 2  # µm² per raw layer
@@ -323,33 +324,29 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
                 kept[c] = _kept_loops(raw, c)
         return _clean_closed(raw, s, kept[c]), time.perf_counter() - t
 
-    def measured(s: SliceSettings, rings: Any) -> tuple[Any, float]:
-        return _timed(_errors, raw, rings[0], raw_area, 1)
-
-    done = []
+    rows: list[dict[str, Any]] = []
+    last = None  # the previous combination, its row made once this one's parts are
     with ThreadPoolExecutor(2, thread_name_prefix="vecslice-sweep") as pool:
         ahead: dict[int, Any] = {}
         for n, (i, s) in enumerate(combos):
             for j in (n, n + 1):  # this combination (if not yet), and the next
                 if j < len(combos) and j not in ahead:
                     ahead[j] = pool.submit(simplified, combos[j][1])
-            model: Any = None
-            errors: Any = None
+            errors = None
             try:
-                rings = ahead.pop(n).result()
-                errors = pool.submit(measured, s, rings)
-                model = _timed(_model, raw, stitched, schedule, s, rings[0])
-                model = (model[0], model[1] + rings[1])
+                rings, simplify_seconds = ahead.pop(n).result()
+                errors = pool.submit(_timed, _errors, raw, rings, raw_area, 1)
+                model, seconds = _timed(_model, raw, stitched, schedule, s, rings)
+                made: Any = (model, seconds + simplify_seconds)
             except Exception as exc:
-                model = exc
-            done.append((i, s, model, errors))
-        rows = []
-        for i, s, model, errors in done:
-            if isinstance(model, Exception):
-                rows.append(_row(mesh_index, name, i, s, None, _describe(model)))
-                continue
-            rows.append(_measured(mesh_index, name, i, s, shared, model, errors,
-                                  speed, controller_ms))
+                made = exc
+            if last is not None:
+                rows.append(_measured(mesh_index, name, *last, shared, speed=speed,
+                                      controller_ms=controller_ms))
+            last = (i, s, made, errors)
+        if last is not None:
+            rows.append(_measured(mesh_index, name, *last, shared, speed=speed,
+                                  controller_ms=controller_ms))
     return rows
 
 
@@ -375,8 +372,8 @@ class _Shared:
     prep_seconds: float
 
 
-def _measured(mesh_index: int, name: str, i: int, s: SliceSettings,
-              shared: _Shared, model: Any, errors: Any, speed: float,
+def _measured(mesh_index: int, name: str, i: int, s: SliceSettings, model: Any,
+              errors: Any, shared: _Shared, *, speed: float,
               controller_ms: float) -> dict[str, Any]:
     """One combination's row.
 

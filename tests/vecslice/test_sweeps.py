@@ -234,3 +234,42 @@ def test_local_scheduler_avoids_threads_on_numbas_workqueue_layer(layer, expecte
     if layer == "default" and out[1] == "workqueue":
         pytest.skip("no omp or tbb threading layer on this machine")
     assert out[0] == expected
+
+
+@pytest.mark.parametrize("stage", ["simplify", "parts", "errors"])
+def test_a_failing_combination_gives_its_row_an_error(monkeypatch, stage):
+    # the combinations run as a pipeline (the next one simplified, this one's
+    # errors measured on other threads): a failure in any stage of one
+    # combination fills its row's error, and the others come out as without it
+    import vecslice.pipeline as pipeline
+    import vecslice.sweeps as sweeps
+
+    # 64-gon layers with ~490 µm edges: each max_resolution keeps other vertices
+    mesh = vs.load_mesh(trimesh.creation.cylinder(5, 2, sections=64))
+    grid = {"max_resolution": [200, 500, 900], "layer_height": [100]}
+    clean = vs.sweep({"cyl": mesh}, grid)
+    raw = vs.slice_contours(mesh, vs.layer_heights(mesh, vs.SliceSettings())[0])
+    sizes = [pipeline._clean_closed(raw, vs.SliceSettings(max_resolution=r))[0]
+             .shape[0] for r in grid["max_resolution"]]
+    assert len(set(sizes)) == 3
+    module, name, is_target = {
+        "simplify": (pipeline, "_clean_closed",
+                     lambda a: a[1].max_resolution == 500),
+        "parts": (sweeps, "_model", lambda a: a[3].max_resolution == 500),
+        "errors": (sweeps, "_errors", lambda a: a[1][0].shape[0] == sizes[1]),
+    }[stage]
+    real = getattr(module, name)
+
+    def failing(*args, **kw):
+        if is_target(args):
+            raise RuntimeError(f"{stage} failed")
+        return real(*args, **kw)
+
+    monkeypatch.setattr(module, name, failing)
+    t = vs.sweep({"cyl": mesh}, grid)
+    failed = (t["error"] != "").to_numpy()
+    assert failed.tolist() == [False, True, False]
+    assert t["error"][1] == f"RuntimeError: {stage} failed"
+    assert np.isnan(t["vertices"][1]) and np.isnan(t["max_deviation_um"][1])
+    _same_table(t[~failed].reset_index(drop=True).astype(clean.dtypes.to_dict()),
+                clean[~failed].reset_index(drop=True))
