@@ -39,18 +39,24 @@ def _code(l0, l1, l2, k):
 def _point(vertices, p, q, zk):
     """Crossing of edge p-q with plane zk, from its lower end (as crossing_points).
 
-    Branch-free: which end is lower and the rounding direction are data, not
-    jumps (both are unpredictable along a loop).
+    Branch-free: which end is lower is data, not a jump (it is unpredictable
+    along a chain); then :func:`_point_up`.
     """
-    zp = vertices[p, 2]
-    zq = vertices[q, 2]
-    swap = zp > zq
-    a = q if swap else p
-    b = p if swap else q
+    swap = vertices[p, 2] > vertices[q, 2]
+    return _point_up(vertices, q if swap else p, p if swap else q, zk)
+
+
+@kernel(inline="always")
+def _point_up(vertices, a, b, zk):
+    """Crossing of the edge from a (below or on zk) to b (above zk) with plane zk.
+
+    ``a + (b - a) * t / dz`` per coordinate, rounded to nearest (ties away from
+    zero) by an exact integer division, as ``crossings.crossing_points``.
+    """
+    za = vertices[a, 2]
+    dz = vertices[b, 2] - za
     xa = vertices[a, 0]
     ya = vertices[a, 1]
-    za = zq if swap else zp
-    dz = (zp if swap else zq) - za
     t = zk - za
     nx = (vertices[b, 0] - xa) * t
     ny = (vertices[b, 1] - ya) * t
@@ -367,7 +373,6 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
         return
     n_faces = faces.shape[0]
     down_of = np.array(DOWN_EDGE, dtype=np.int64)
-    up_of = np.array(UP_EDGE, dtype=np.int64)
     cursor = np.empty(k1 - k0, dtype=np.int64)
     for k in range(k0, k1):
         cursor[k - k0] = layer_start[out_layer[k]]
@@ -384,36 +389,39 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
                 pos = cursor[k - k0]
                 out_ring_start[pos] = 1
                 out_rings_of[k] += 1
+                # the loop enters face f by its down edge e (vertex e above the
+                # plane, e + 1 below), found from the face's code only where a
+                # loop starts or an open end is joined; inside a loop it is the
+                # twin's edge. The up edge is then e + 1 if the third vertex is
+                # above, else e + 2: one vertex layer read per crossing
                 f = f0
+                e = down_of[_code(vert_layer[faces[f, 0]], vert_layer[faces[f, 1]],
+                                  vert_layer[faces[f, 2]], k)]
                 while True:
-                    p0 = faces[f, 0]
-                    p1 = faces[f, 1]
-                    p2 = faces[f, 2]
-                    l0 = vert_layer[p0]
-                    l1 = vert_layer[p1]
-                    l2 = vert_layer[p2]
-                    s = face_offsets[f] + k - min(l0, min(l1, l2))
+                    s = face_offsets[f] + k - face_lo[f]
                     if out_visited[s]:
                         break
                     out_visited[s] = 1
-                    code = _code(l0, l1, l2, k)
-                    jd = down_of[code]
-                    ju = up_of[code]
-                    # jd is unpredictable along a loop: select, don't branch
-                    pa = p0 if jd == 0 else (p1 if jd == 1 else p2)
-                    pb = p1 if jd == 0 else (p2 if jd == 1 else p0)
-                    x, y = _point(vertices, pa, pb, zk)
+                    e1 = e + 1 if e < 2 else 0
+                    e2 = e1 + 1 if e1 < 2 else 0
+                    t1 = twin[3 * f + e1]  # both candidates: no wait on the layer
+                    t2 = twin[3 * f + e2]
+                    x, y = _point_up(vertices, faces[f, e1], faces[f, e], zk)
                     out_coords[pos, 0] = x
                     out_coords[pos, 1] = y
                     pos += 1
-                    tw = twin[3 * f + ju]
+                    tw = t1 if k < vert_layer[faces[f, e2]] else t2
                     if tw >= 0:
                         f = tw // 3
+                        e = tw - 3 * f
                     else:
                         f = _paired(in_seg, in_pair, out_face, s)
                         if f < 0:  # cannot happen: only chains end
                             out_broken[k] = 1
                             break
+                        e = down_of[_code(vert_layer[faces[f, 0]],
+                                          vert_layer[faces[f, 1]],
+                                          vert_layer[faces[f, 2]], k)]
                 cursor[k - k0] = pos
 
 

@@ -55,7 +55,7 @@ DEMO_KERNELS = {
 }
 DEMO_CALLEES = {
     "topology": {"_heapsort"},
-    "contours": {"_point", "_paired"},
+    "contours": {"_paired"},
 }
 # kernels/simplify.py (and the geometry helpers it calls) is tuned for its own
 # compile time by its owner; its kernels are not listed here
