@@ -1,7 +1,9 @@
 """A 12-combination XY sweep (vs.sweep, metrics included) beside 12 separate
-slice_mesh calls on the reference workload (five 3DBenchy copies, 0.1 mm layers).
-Target: the sweep takes at most 0.7x the time. ``python benchmarks/sweep_ratio.py``
-alternates both and prints the ratio (wall and CPU)."""
+slice_mesh calls on the reference workload (five 3DBenchy copies, 0.1 mm layers),
+both from one prepared ``Mesh`` and from the int64 arrays (every separate call
+builds its own ``Mesh``, the sweep one). Target: the sweep takes at most 0.7x the
+time. ``python benchmarks/sweep_ratio.py`` alternates all four and prints the
+ratios (wall and CPU)."""
 
 from __future__ import annotations
 
@@ -10,7 +12,7 @@ import pytest
 
 import vecslice as vs
 from _workloads import plate
-from sweep_ratio import GRID, combos, separate
+from sweep_ratio import GRID, combos, separate, separate_from_arrays, swept_from_arrays
 
 
 @pytest.fixture(scope="module")
@@ -37,3 +39,16 @@ def test_slice_mesh_12_times(benchmark, reference):
                                 threads=numba.get_num_threads())
     benchmark.pedantic(separate, (reference,), rounds=1, iterations=1)
     assert len(combos()) == 12
+
+
+@pytest.mark.benchmark(group="sweep 12 XY settings, from arrays")
+def test_sweep_12_xy_from_arrays(benchmark, reference):
+    v, f = reference.vertices.copy(), reference.faces.copy()
+    table = benchmark.pedantic(swept_from_arrays, (v, f), rounds=1, iterations=1)
+    assert len(table) == 12 and (table["error"] == "").all()
+
+
+@pytest.mark.benchmark(group="sweep 12 XY settings, from arrays")
+def test_slice_mesh_12_times_from_arrays(benchmark, reference):
+    v, f = reference.vertices.copy(), reference.faces.copy()
+    benchmark.pedantic(separate_from_arrays, (v, f), rounds=1, iterations=1)
