@@ -35,6 +35,13 @@ def _code(l0, l1, l2, k):
     return (1 if k < l0 else 0) + (2 if k < l1 else 0) + (4 if k < l2 else 0)
 
 
+@kernel(inline="always")
+def _down_edge(faces, vert_layer, down_of, f, k):
+    """Face f's down edge at plane k, from its code (``down_of``: ``DOWN_EDGE``)."""
+    return down_of[_code(vert_layer[faces[f, 0]], vert_layer[faces[f, 1]],
+                         vert_layer[faces[f, 2]], k)]
+
+
 @kernel(types.UniTuple(I64, 2)(I64_2D, I64, I64, I64))
 def _point(vertices, p, q, zk):
     """Crossing of edge p-q with plane zk, from its lower end (as crossing_points).
@@ -395,8 +402,7 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
                 # twin's edge. The up edge is then e + 1 if the third vertex is
                 # above, else e + 2: one vertex layer read per crossing
                 f = f0
-                e = down_of[_code(vert_layer[faces[f, 0]], vert_layer[faces[f, 1]],
-                                  vert_layer[faces[f, 2]], k)]
+                e = _down_edge(faces, vert_layer, down_of, f, k)
                 while True:
                     s = face_offsets[f] + k - face_lo[f]
                     if out_visited[s]:
@@ -419,9 +425,7 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
                         if f < 0:  # cannot happen: only chains end
                             out_broken[k] = 1
                             break
-                        e = down_of[_code(vert_layer[faces[f, 0]],
-                                          vert_layer[faces[f, 1]],
-                                          vert_layer[faces[f, 2]], k)]
+                        e = _down_edge(faces, vert_layer, down_of, f, k)
                 cursor[k - k0] = pos
 
 
