@@ -360,27 +360,25 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, npc):
                 ub = best
                 kmax = k
         h = np.inf  # no band: the piece has no single chord
-        for kk in range(ap, aq + 1):
-            k = kk if kk < n else kk - n
-            vx = rc[r0 + k, 0]
-            vy = rc[r0 + k, 1]
-            x0 = min(x0, vx)
-            y0 = min(y0, vy)
-            x1 = max(x1, vx)
-            y1 = max(y1, vy)
-            spmax = max(spmax, gpx * (vy - ay) - gpy * (vx - ax))
-            sqmin = min(sqmin, gqx * (vy - ay) - gqy * (vx - ax))
+        # box and sides over the piece's vertices: raw ap..aq, then simplified
+        # p..q-1 (one loop over both chains)
+        n_raw = aq - ap + 1
         j = p
-        while j != q:
-            vx = sc[s0 + j, 0]
-            vy = sc[s0 + j, 1]
+        for i in range(n_raw + (q - p) % m):
+            if i < n_raw:
+                k = ap + i if ap + i < n else ap + i - n
+                vx = rc[r0 + k, 0]
+                vy = rc[r0 + k, 1]
+            else:
+                vx = sc[s0 + j, 0]
+                vy = sc[s0 + j, 1]
+                j = j + 1 if j + 1 < m else 0
             x0 = min(x0, vx)
             y0 = min(y0, vy)
             x1 = max(x1, vx)
             y1 = max(y1, vy)
             spmax = max(spmax, gpx * (vy - ay) - gpy * (vx - ax))
             sqmin = min(sqmin, gqx * (vy - ay) - gqy * (vx - ax))
-            j = j + 1 if j + 1 < m else 0
         area = _two_chain_area(rc, r0, n, sc, s0, m, p, q, ap, aq)
     wi[b + _X0] = x0
     wi[b + _Y0] = y0
