@@ -59,7 +59,7 @@ from .pieces import (
     _piece_edges,
     _separator,
 )
-from .planar import _point_segment, _to_ring, winding_area
+from .planar import _dist2, _point_segment, _to_ring, _to_ring_within, winding_area
 
 _W1 = types.int64[::1]
 _W2 = types.int64[:, ::1]
@@ -168,7 +168,7 @@ def _h_at(t0, h0, t1, h1, t):
                                                     / np.float64(t1 - t0))
 
 
-@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, I64, I64, I64, I64))
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, I64, I64, I64, I64), inline="always")
 def _two_chain_area(rc, r0, n, sc, s0, m, p, q, ap, aq):
     """``∫|w|`` of the piece raw ap..aq + simplified q..p, or -1.
 
@@ -348,14 +348,24 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, npc):
             k = kk if kk < n else kk - n
             px = rc[r0 + k, 0]
             py = rc[r0 + k, 1]
-            best = np.inf
+            # the nearest simplified edge p..q (chosen by squared distance),
+            # measured exactly: at least the vertex's distance to the ring
+            bn = np.inf
+            bd = 1.0
+            near = p
             j = p
             while j != q:
                 j1 = j + 1 if j + 1 < m else 0
-                d = _point_segment(px, py, sc[s0 + j, 0], sc[s0 + j, 1],
-                                   sc[s0 + j1, 0], sc[s0 + j1, 1])
-                best = min(best, d)
+                num, den = _dist2(px, py, sc[s0 + j, 0], sc[s0 + j, 1],
+                                  sc[s0 + j1, 0], sc[s0 + j1, 1])
+                if num * bd < bn * den:
+                    bn = num
+                    bd = den
+                    near = j
                 j = j1
+            j1 = near + 1 if near + 1 < m else 0
+            best = _point_segment(px, py, sc[s0 + near, 0], sc[s0 + near, 1],
+                                  sc[s0 + j1, 0], sc[s0 + j1, 1])
             if best > ub:
                 ub = best
                 kmax = k
@@ -392,6 +402,66 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, npc):
     return area
 
 
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, I64, _W1, _WF, _W2, I64),
+        _nrt=False)
+def _runs_pass(rc, r0, n, sc, s0, m, anchor, first, wi, wf, e, npc):
+    """Record the ``npc`` runs from the anchors, then measure each (:func:`_run`).
+
+    ``first``: the first anchored simplified vertex. Returns the sum of the
+    pieces' areas. Allocates nothing, so it is compiled without reference
+    counting: an array passed to an inlined helper otherwise costs an atomic
+    increment and decrement per run.
+    """
+    p = first
+    for t in range(npc):
+        q = p + 1 if p + 1 < m else 0
+        while anchor[q] < 0:
+            q = q + 1 if q + 1 < m else 0
+        b = _NI * t
+        wi[b + _P] = p
+        wi[b + _Q] = q
+        wi[b + _AP] = anchor[p]
+        wi[b + _AQ] = anchor[q] if anchor[q] > anchor[p] else anchor[q] + n
+        gx, gy = _separator(sc, s0, m, p)
+        wi[b + _GX] = gx
+        wi[b + _GY] = gy
+        p = q
+    total = 0.0
+    for t in range(npc):
+        b = _NI * t
+        area = _run(rc, r0, n, sc, s0, m, wi, wf, t, npc)
+        if area < 0.0:  # a chain folds back along the chord: the sweep
+            area = _piece_area(rc, r0, n, sc, s0, m, wi[b + _P], wi[b + _Q],
+                               wi[b + _AP], wi[b + _AQ], e)
+        if not area > 0.0:
+            wi[b + _KIND] = 0
+        wf[_NF * t + _AREA] = area
+        total += area
+    return total
+
+
+@kernel(I64(_W1, _W1, I64), _nrt=False)
+def _join_neighbours(wi, parent, npc):
+    """Join (in a fresh ``parent`` forest) neighbouring runs no line separates.
+
+    Returns the number of joins. Allocates nothing: compiled without reference
+    counting (see :func:`_runs_pass`).
+    """
+    for t in range(npc):
+        parent[t] = t
+    joined = 0
+    for t in range(npc):
+        tl = t - 1 if t > 0 else npc - 1
+        if (wi[_NI * t + _KIND] != 0 and wi[_NI * tl + _KIND] != 0
+                and not _neighbours_apart(wi, t, npc)):
+            rt = _find(parent, t)
+            rl = _find(parent, tl)
+            if rt != rl:
+                parent[max(rt, rl)] = min(rt, rl)
+                joined += 1
+    return joined
+
+
 @kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64))
 def _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc):
     """Exact largest distance from a raw vertex to the simplified ring.
@@ -410,7 +480,7 @@ def _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc):
     if bound == 0.0:
         return 0.0
     k = wi[_NI * top + _KMAX]
-    best = _to_ring(rc[r0 + k, 0], rc[r0 + k, 1], sc, s0, m)
+    best = _to_ring_within(rc[r0 + k, 0], rc[r0 + k, 1], sc, s0, m, bound)
     if best == bound:
         return best
     keys = np.empty(npc, np.float64)
@@ -438,7 +508,7 @@ def _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc):
                 if j == q:
                     break
             if u > best:
-                best = max(best, _to_ring(px, py, sc, s0, m))
+                best = max(best, _to_ring_within(px, py, sc, s0, m, u))
     return best
 
 
@@ -459,13 +529,27 @@ def _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub):
         aq = wi[b + _AQ]
         j = p + 1 if p + 1 < m else 0
         while j != q:
-            u = np.inf
+            # the nearest raw edge ap..aq-1 (chosen by squared distance),
+            # measured exactly: at least the vertex's distance to the ring
+            px = sc[s0 + j, 0]
+            py = sc[s0 + j, 1]
+            bn = np.inf
+            bd = 1.0
+            near = -1
             for kk in range(ap, aq):
                 k = kk if kk < n else kk - n
                 k1 = k + 1 if k + 1 < n else 0
-                u = min(u, _point_segment(sc[s0 + j, 0], sc[s0 + j, 1],
-                                          rc[r0 + k, 0], rc[r0 + k, 1],
-                                          rc[r0 + k1, 0], rc[r0 + k1, 1]))
+                num, den = _dist2(px, py, rc[r0 + k, 0], rc[r0 + k, 1],
+                                  rc[r0 + k1, 0], rc[r0 + k1, 1])
+                if num * bd < bn * den:
+                    bn = num
+                    bd = den
+                    near = k
+            u = np.inf
+            if near >= 0:
+                k1 = near + 1 if near + 1 < n else 0
+                u = _point_segment(px, py, rc[r0 + near, 0], rc[r0 + near, 1],
+                                   rc[r0 + k1, 0], rc[r0 + k1, 1])
             ub[j] = u
             if top < 0 or u > ub[top]:
                 top = j
@@ -473,7 +557,7 @@ def _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub):
         ub[p] = 0.0
     if top < 0 or ub[top] == 0.0:
         return 0.0
-    best = _to_ring(sc[s0 + top, 0], sc[s0 + top, 1], rc, r0, n)
+    best = _to_ring_within(sc[s0 + top, 0], sc[s0 + top, 1], rc, r0, n, ub[top])
     if best == ub[top]:
         return best
     keys = np.empty(m, np.float64)
@@ -484,7 +568,8 @@ def _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub):
         j = order[i]
         if ub[j] <= best:
             break
-        best = max(best, _to_ring(sc[s0 + j, 0], sc[s0 + j, 1], rc, r0, n))
+        best = max(best, _to_ring_within(sc[s0 + j, 0], sc[s0 + j, 1], rc, r0, n,
+                                         ub[j]))
     return best
 
 
@@ -515,48 +600,13 @@ def _compare_one(rc, r0, n, sc, s0, m, anchor, wi, wf, ub, e):
     if npc < 2:  # no usable correspondence: all pairs, and the sweep
         return (_all_pairs(rc, r0, n, sc, s0, m), _all_pairs(sc, s0, m, rc, r0, n),
                 _ring_area(rc, r0, n, sc, s0, m, e), False)
-    p = first
-    for t in range(npc):
-        q = p + 1 if p + 1 < m else 0
-        while anchor[q] < 0:
-            q = q + 1 if q + 1 < m else 0
-        b = _NI * t
-        wi[b + _P] = p
-        wi[b + _Q] = q
-        wi[b + _AP] = anchor[p]
-        wi[b + _AQ] = anchor[q] if anchor[q] > anchor[p] else anchor[q] + n
-        gx, gy = _separator(sc, s0, m, p)
-        wi[b + _GX] = gx
-        wi[b + _GY] = gy
-        p = q
-    total = 0.0
-    for t in range(npc):
-        b = _NI * t
-        area = _run(rc, r0, n, sc, s0, m, wi, wf, t, npc)
-        if area < 0.0:  # a chain folds back along the chord: the sweep
-            area = _piece_area(rc, r0, n, sc, s0, m, wi[b + _P], wi[b + _Q],
-                               wi[b + _AP], wi[b + _AQ], e)
-        if not area > 0.0:
-            wi[b + _KIND] = 0
-        wf[_NF * t + _AREA] = area
-        total += area
+    total = _runs_pass(rc, r0, n, sc, s0, m, anchor, first, wi, wf, e, npc)
     d1 = _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc)
     d2 = _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub)
     # runs that may overlap (neighbours no line separates, others too close)
     # form components, each measured by one sweep over its pieces together
     parent = anchor  # the anchors are not needed any more
-    for t in range(npc):
-        parent[t] = t
-    joined = 0
-    for t in range(npc):
-        tl = t - 1 if t > 0 else npc - 1
-        if (wi[_NI * t + _KIND] != 0 and wi[_NI * tl + _KIND] != 0
-                and not _neighbours_apart(wi, t, npc)):
-            rt = _find(parent, t)
-            rl = _find(parent, tl)
-            if rt != rl:
-                parent[max(rt, rl)] = min(rt, rl)
-                joined += 1
+    joined = _join_neighbours(wi, parent, npc)
     if joined == npc - 1 or not _others_conflicts(rc, r0, n, sc, s0, m, wi, wf,
                                                   parent, npc):
         return d1, d2, _ring_area(rc, r0, n, sc, s0, m, e), False

@@ -90,7 +90,7 @@ def _neighbours_apart(wi, t, npc):
             and (wi[_NI * tl + _SIDE] & 2) != 0)
 
 
-@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, I64))
+@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, I64, I64), inline="always")
 def _outside_band(rc, r0, n, sc, s0, m, wi, wf, t, u):
     """All vertices of run t lie beyond one side of run u's band (|h| <= H_u)."""
     bu = _NI * u
@@ -144,14 +144,33 @@ def _others_conflicts(rc, r0, n, sc, s0, m, wi, wf, parent, npc):
         if wi[_NI * t + _KIND] != 0:
             wi[base + nz] = ((wi[_NI * t + _X0] + _X_OFF) << 32) | t
             nz += 1
-    keys = wi[base:base + nz]
-    keys.sort()
+    if nz > 64:  # else sorted by insertion in _sorted_pairs (numba's sort
+        wi[base:base + nz].sort()  # allocates its stack on every call)
+    return _sorted_pairs(rc, r0, n, sc, s0, m, wi, wf, parent, npc, base, nz)
+
+
+@kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1, _WF, _W1, I64, I64, I64),
+        _nrt=False)
+def _sorted_pairs(rc, r0, n, sc, s0, m, wi, wf, parent, npc, base, nz):
+    """:func:`_others_conflicts`' pairs, its ``nz`` keys at ``wi[base:]``.
+
+    Sorts the keys by insertion first (linear when they are sorted already).
+    Allocates nothing: compiled without reference counting (an array passed to
+    an inlined helper otherwise costs an atomic increment and decrement).
+    """
+    for a in range(base + 1, base + nz):
+        key = wi[a]
+        c = a - 1
+        while c >= base and wi[c] > key:
+            wi[c + 1] = wi[c]
+            c -= 1
+        wi[c + 1] = key
     budget = 8 * npc + 64
     for a in range(nz):
-        ti = keys[a] & _T_MASK
+        ti = wi[base + a] & _T_MASK
         bi = _NI * ti
         for c in range(a + 1, nz):
-            tj = keys[c] & _T_MASK
+            tj = wi[base + c] & _T_MASK
             bj = _NI * tj
             if wi[bj + _X0] > wi[bi + _X1]:
                 break

@@ -37,6 +37,31 @@ def _point_segment(px, py, ax, ay, bx, by):
     return abs(np.float64(cross)) / np.sqrt(np.float64(len2))
 
 
+@kernel(inline="always")
+def _dist2(px, py, ax, ay, bx, by):
+    """``(num, den)``: the squared distance from p to segment a-b, about num / den.
+
+    Float64, for choosing the nearest of several edges without a square root or a
+    division (``num1 * den2 < num2 * den1``); the chosen edge is then measured
+    by :func:`_point_segment`, whose value bounds the true minimum from above
+    whichever edge rounding made the choice.
+    """
+    dx = bx - ax
+    dy = by - ay
+    qx = px - ax
+    qy = py - ay
+    dot = qx * dx + qy * dy
+    len2 = dx * dx + dy * dy
+    if dot <= 0 or len2 == 0:
+        return np.float64(qx * qx + qy * qy), 1.0
+    if dot >= len2:
+        rx = px - bx
+        ry = py - by
+        return np.float64(rx * rx + ry * ry), 1.0
+    c = np.float64(dx * qy - dy * qx)
+    return c * c, np.float64(len2)
+
+
 @kernel(F64(I64, I64, I64_2D, I64, I64), inline="always")
 def _to_ring(px, py, c, start, n):
     """Distance from p to ring ``c[start:start + n]`` (closed), all edges."""
@@ -45,6 +70,38 @@ def _to_ring(px, py, c, start, n):
         j = i + 1 if i + 1 < n else 0
         d = _point_segment(px, py, c[start + i, 0], c[start + i, 1],
                            c[start + j, 0], c[start + j, 1])
+        if d < best:
+            best = d
+    return best
+
+
+@kernel(F64(I64, I64, I64_2D, I64, I64, F64), inline="always")
+def _to_ring_within(px, py, c, start, n, bound):
+    """:func:`_to_ring`, bit for bit, given some edge's distance ``bound``.
+
+    ``bound`` is one edge's ``_point_segment`` value. An edge with both ends
+    more than ``r = floor(bound) + 1`` beyond p in x or in y is skipped without
+    measuring it: with integer coordinates it lies at least ``r + 1 > bound + 1``
+    away, so it cannot hold the minimum.
+    """
+    if not bound < 2.0**40:  # inf, or too far for the integer window
+        return _to_ring(px, py, c, start, n)
+    r = np.int64(bound) + 1
+    x0 = px - r
+    x1 = px + r
+    y0 = py - r
+    y1 = py + r
+    best = np.inf
+    for i in range(n):
+        j = i + 1 if i + 1 < n else 0
+        ax = c[start + i, 0]
+        ay = c[start + i, 1]
+        bx = c[start + j, 0]
+        by = c[start + j, 1]
+        if ((ax < x0 and bx < x0) or (ax > x1 and bx > x1)
+                or (ay < y0 and by < y0) or (ay > y1 and by > y1)):
+            continue
+        d = _point_segment(px, py, ax, ay, bx, by)
         if d < best:
             best = d
     return best

@@ -140,3 +140,45 @@ def test_real_layers_match_manifold3d(meshes_dir):
         assert area[r] == pytest.approx(want, rel=1e-7, abs=1e-3)
         checked += 1
     assert checked > 50 and linear.mean() > 0.9
+
+
+@settings(max_examples=80)
+@given(star_rings(max_n=40), st.integers(0, 39), st.integers(-40000, 40000),
+       st.integers(-40000, 40000))
+def test_to_ring_within_equals_to_ring(ring, i, dx, dy):
+    # given one edge's distance as the bound, the windowed scan skips only
+    # edges that cannot hold the minimum: the same float, bit for bit
+    from vecslice._kernels.planar import _point_segment, _to_ring, _to_ring_within
+
+    n = len(ring)
+    i %= n
+    a, b = ring[i], ring[(i + 1) % n]
+    px, py = int(a[0]) + dx, int(a[1]) + dy
+    bound = _point_segment(px, py, a[0], a[1], b[0], b[1])
+    want = _to_ring(px, py, ring, 0, n)
+    assert _to_ring_within(px, py, ring, 0, n, bound) == want
+    assert _to_ring_within(px, py, ring, 0, n, np.inf) == want
+
+
+def test_real_layers_deviation_matches_brute_force(meshes_dir):
+    # the bounds (nearest edge chosen by squared distance, windowed ring scans)
+    # only prune: every ring's deviation is the brute-force maximum, bit for bit
+    import vecslice as vs
+
+    mesh = vs.load_mesh(meshes_dir / "3DBenchy.3mf")
+    raw = vs.slice_contours(mesh, np.array([2100, 9100, 25100]))
+    for max_res, max_dev in ((500, 25), (2000, 100)):
+        sc, so = simplify_rings(raw.coords, raw.ring_offsets, True, max_res,
+                                max_dev, 50000)
+        sc, so = remove_degenerate_vertices(sc, so)
+        d1, d2, _, _ = compare_rings(raw.coords, raw.ring_offsets, sc, so)
+        # some simplified vertices are moved (intersections), not raw vertices
+        raw_set = {tuple(v) for v in raw.coords.tolist()}
+        assert sum(tuple(v) not in raw_set for v in sc.tolist()) > 0
+        for r in range(raw.n_rings):
+            a = raw.coords[raw.ring_offsets[r]:raw.ring_offsets[r + 1]]
+            b = sc[so[r]:so[r + 1]]
+            if len(b) == 0:
+                continue
+            assert d1[r] == ref.max_vertex_distance(a, b)
+            assert d2[r] == ref.max_vertex_distance(b, a)

@@ -193,3 +193,46 @@ def test_recorded_side_tests_on_real_layers(meshes_dir):
             _check_ring(raw.coords[raw.ring_offsets[r]:raw.ring_offsets[r + 1]],
                         sc[so[r]:so[r + 1]], seen)
     assert seen == {False, True} and _SHORTCUTS[0] > 100
+
+
+@settings(max_examples=60)
+@given(st.integers(4, 90), st.integers(0, 2**32 - 1), st.sampled_from([50, 400, 3000]))
+def test_box_sweep_joins_every_overlapping_pair(npc, seed, size):
+    # runs without a band (H = inf) are joined whenever they are not neighbours
+    # and their boxes overlap: the sweep over boxes sorted by x0 (by insertion up
+    # to 64 runs, numba's sort above) must find every such pair
+    from vecslice._kernels.pieces import _X0, _X1, _Y0, _Y1, _find, _others_conflicts
+
+    rng = np.random.default_rng(seed)
+    x0 = rng.integers(-10000, 10000, npc)
+    y0 = rng.integers(-10000, 10000, npc)
+    x1 = x0 + rng.integers(0, size, npc)
+    y1 = y0 + rng.integers(0, size, npc)
+    wi = np.zeros(_NI * (2 * npc + 1), np.int64)
+    wf = np.zeros(_NF * (npc + 1), np.float64)
+    for t in range(npc):
+        wi[_NI * t + _KIND] = 2
+        wi[_NI * t + _X0], wi[_NI * t + _Y0] = x0[t], y0[t]
+        wi[_NI * t + _X1], wi[_NI * t + _Y1] = x1[t], y1[t]
+        wf[_NF * t + _H] = np.inf
+    parent = np.arange(npc, dtype=np.int64)
+    no_coords = np.zeros((1, 2), np.int64)
+    if not _others_conflicts(no_coords, 0, 1, no_coords, 0, 1, wi, wf, parent, npc):
+        return  # over its pair budget: the caller sweeps the whole ring instead
+    want = np.arange(npc)  # brute force: every pair, then union-find
+
+    def root(t):
+        while want[t] != t:
+            t = want[t]
+        return t
+
+    for i in range(npc):
+        for j in range(i + 1, npc):
+            if j - i in (1, npc - 1):
+                continue
+            if x0[j] > x1[i] or x0[i] > x1[j] or y0[j] > y1[i] or y0[i] > y1[j]:
+                continue
+            ri, rj = root(i), root(j)
+            want[max(ri, rj)] = min(ri, rj)
+    got = [_find(parent, t) for t in range(npc)]
+    assert got == [root(t) for t in range(npc)]
