@@ -41,11 +41,17 @@ def kernel(signature=None, **options):
         The one signature the kernel is compiled for. Only helpers inlined into
         their callers (``inline="always"``) may omit it.
     **options
-        Further numba options (``parallel``, ``inline``). ``fastmath`` is refused:
-        results must be exact.
+        Further numba options (``parallel``, ``inline``, ``_nrt``). ``fastmath`` is
+        refused: results must be exact. ``_nrt=False`` compiles a kernel that
+        allocates nothing without reference counting; every other kernel sets
+        ``_nrt=True`` explicitly, because numba lets a kernel first compiled
+        while typing a caller inherit the caller's ``_nrt`` when it sets none (so
+        whether an allocating kernel compiled would depend on which caller was
+        compiled first).
     """
     if options.get("fastmath"):
         raise ValueError("kernels must not use fastmath")
+    options.setdefault("_nrt", True)
 
     def decorate(fn):
         disp = njit(cache=True, nogil=True, **options)(fn)

@@ -60,6 +60,13 @@ def test_kernel_is_cached_nogil_and_without_fastmath(kernel):
     assert not kernel.targetoptions.get("fastmath"), "no fastmath"
 
 
+@pytest.mark.parametrize("kernel", KERNELS)
+def test_kernel_sets_reference_counting_explicitly(kernel):
+    # numba lets a kernel without an explicit _nrt inherit its first caller's:
+    # an allocating kernel first typed inside an _nrt=False one would not compile
+    assert kernel.targetoptions.get("_nrt") in (True, False)
+
+
 @pytest.mark.parametrize("kernel", DECLARED)
 def test_kernels_declare_one_signature_and_compile_only_it(kernel):
     # inline helpers are compiled into their callers; every other kernel declares
