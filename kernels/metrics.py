@@ -59,7 +59,13 @@ from .pieces import (
     _piece_edges,
     _separator,
 )
-from .planar import _dist2, _point_segment, _to_ring, _to_ring_within, winding_area
+from .planar import (
+    _near_edge_distance,
+    _point_segment,
+    _to_ring,
+    _to_ring_within,
+    winding_area,
+)
 
 _W1 = types.int64[::1]
 _W2 = types.int64[:, ::1]
@@ -348,24 +354,9 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, npc):
             k = kk if kk < n else kk - n
             px = rc[r0 + k, 0]
             py = rc[r0 + k, 1]
-            # the nearest simplified edge p..q (chosen by squared distance),
-            # measured exactly: at least the vertex's distance to the ring
-            bn = np.inf
-            bd = 1.0
-            near = p
-            j = p
-            while j != q:
-                j1 = j + 1 if j + 1 < m else 0
-                num, den = _dist2(px, py, sc[s0 + j, 0], sc[s0 + j, 1],
-                                  sc[s0 + j1, 0], sc[s0 + j1, 1])
-                if num * bd < bn * den:
-                    bn = num
-                    bd = den
-                    near = j
-                j = j1
-            j1 = near + 1 if near + 1 < m else 0
-            best = _point_segment(px, py, sc[s0 + near, 0], sc[s0 + near, 1],
-                                  sc[s0 + j1, 0], sc[s0 + j1, 1])
+            # the nearest simplified edge p..q-1, measured exactly: at least
+            # the vertex's distance to the ring
+            best = _near_edge_distance(px, py, sc, s0, m, p, (q - p) % m)
             if best > ub:
                 ub = best
                 kmax = k
@@ -529,27 +520,10 @@ def _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub):
         aq = wi[b + _AQ]
         j = p + 1 if p + 1 < m else 0
         while j != q:
-            # the nearest raw edge ap..aq-1 (chosen by squared distance),
-            # measured exactly: at least the vertex's distance to the ring
-            px = sc[s0 + j, 0]
-            py = sc[s0 + j, 1]
-            bn = np.inf
-            bd = 1.0
-            near = -1
-            for kk in range(ap, aq):
-                k = kk if kk < n else kk - n
-                k1 = k + 1 if k + 1 < n else 0
-                num, den = _dist2(px, py, rc[r0 + k, 0], rc[r0 + k, 1],
-                                  rc[r0 + k1, 0], rc[r0 + k1, 1])
-                if num * bd < bn * den:
-                    bn = num
-                    bd = den
-                    near = k
-            u = np.inf
-            if near >= 0:
-                k1 = near + 1 if near + 1 < n else 0
-                u = _point_segment(px, py, rc[r0 + near, 0], rc[r0 + near, 1],
-                                   rc[r0 + k1, 0], rc[r0 + k1, 1])
+            # the nearest raw edge ap..aq-1, measured exactly: at least the
+            # vertex's distance to the ring
+            u = _near_edge_distance(sc[s0 + j, 0], sc[s0 + j, 1], rc, r0, n, ap,
+                                    aq - ap)
             ub[j] = u
             if top < 0 or u > ub[top]:
                 top = j

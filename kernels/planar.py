@@ -14,52 +14,76 @@ from ._types import B1, F64, I64, I64_2D
 _W2 = types.int64[:, ::1]
 
 
+@kernel(inline="always")
+def _segment_case(px, py, ax, ay, bx, by):
+    """``(v, len2)`` in int64, the case of p against the closed segment a-b.
+
+    Decided exactly: ``len2 == 0`` when an end point is nearest (then ``v`` is
+    the squared distance to it), else ``v`` is the cross product ``(b - a) x
+    (p - a)`` and ``len2 = |b - a|²`` (the distance is ``|v| / sqrt(len2)``).
+    """
+    dx = bx - ax
+    dy = by - ay
+    qx = px - ax
+    qy = py - ay
+    dot = qx * dx + qy * dy
+    len2 = dx * dx + dy * dy
+    if dot <= 0 or len2 == 0:
+        return qx * qx + qy * qy, np.int64(0)
+    if dot >= len2:
+        rx = px - bx
+        ry = py - by
+        return rx * rx + ry * ry, np.int64(0)
+    return dx * qy - dy * qx, len2
+
+
 @kernel(F64(I64, I64, I64, I64, I64, I64), inline="always")
 def _point_segment(px, py, ax, ay, bx, by):
     """Distance from p to the closed segment a-b, µm (float64).
 
-    Which of the three cases applies is decided exactly in int64; the distance is
-    ``sqrt(float(d2))`` to an end point or ``|float(cross)| / sqrt(float(len2))``.
+    Which of the three cases applies is decided exactly in int64
+    (:func:`_segment_case`); the distance is ``sqrt(float(d2))`` to an end point
+    or ``|float(cross)| / sqrt(float(len2))``.
     """
-    dx = bx - ax
-    dy = by - ay
-    qx = px - ax
-    qy = py - ay
-    dot = qx * dx + qy * dy
-    len2 = dx * dx + dy * dy
-    if dot <= 0 or len2 == 0:
-        return np.sqrt(np.float64(qx * qx + qy * qy))
-    if dot >= len2:
-        rx = px - bx
-        ry = py - by
-        return np.sqrt(np.float64(rx * rx + ry * ry))
-    cross = dx * qy - dy * qx
-    return abs(np.float64(cross)) / np.sqrt(np.float64(len2))
+    v, len2 = _segment_case(px, py, ax, ay, bx, by)
+    if len2 == 0:
+        return np.sqrt(np.float64(v))
+    return abs(np.float64(v)) / np.sqrt(np.float64(len2))
 
 
 @kernel(inline="always")
-def _dist2(px, py, ax, ay, bx, by):
-    """``(num, den)``: the squared distance from p to segment a-b, about num / den.
+def _near_edge_distance(px, py, c, start, n, i, count):
+    """Distance from p to the nearest of edges ``i .. i+count-1`` of a ring.
 
-    Float64, for choosing the nearest of several edges without a square root or a
-    division (``num1 * den2 < num2 * den1``); the chosen edge is then measured
-    by :func:`_point_segment`, whose value bounds the true minimum from above
-    whichever edge rounding made the choice.
+    The ring is ``c[start:start + n]`` (edge k joins vertex k to k+1, mod n;
+    ``0 <= i < n``). The edge is chosen by squared distance without a square
+    root or a division (``num1 * den2 < num2 * den1``) and measured by
+    :func:`_point_segment`: that value bounds the true minimum over these edges
+    from above, whichever edge rounding chose. ``inf`` when ``count`` is 0.
     """
-    dx = bx - ax
-    dy = by - ay
-    qx = px - ax
-    qy = py - ay
-    dot = qx * dx + qy * dy
-    len2 = dx * dx + dy * dy
-    if dot <= 0 or len2 == 0:
-        return np.float64(qx * qx + qy * qy), 1.0
-    if dot >= len2:
-        rx = px - bx
-        ry = py - by
-        return np.float64(rx * rx + ry * ry), 1.0
-    c = np.float64(dx * qy - dy * qx)
-    return c * c, np.float64(len2)
+    bn = np.inf
+    bd = 1.0
+    near = -1
+    k = i
+    for _ in range(count):
+        k1 = k + 1 if k + 1 < n else 0
+        v, len2 = _segment_case(px, py, c[start + k, 0], c[start + k, 1],
+                                c[start + k1, 0], c[start + k1, 1])
+        num = np.float64(v)
+        den = 1.0
+        if len2 != 0:
+            num = num * num
+            den = np.float64(len2)
+        if num * bd < bn * den:
+            bn = num
+            bd = den
+            near = k
+        k = k1
+    if near < 0:
+        return np.inf
+    k1 = near + 1 if near + 1 < n else 0
+    return _point_segment(px, py, c[start + near, 0], c[start + near, 1],
+                          c[start + k1, 0], c[start + k1, 1])
 
 
 @kernel(F64(I64, I64, I64_2D, I64, I64), inline="always")
