@@ -61,7 +61,6 @@ from .pieces import (
 )
 from .planar import (
     _near_edge_distance,
-    _point_segment,
     _to_ring,
     _to_ring_within,
     winding_area,
@@ -261,8 +260,10 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, npc):
     ``pieces._neighbours_apart``; ``_GX``, ``_GY`` of runs t and t+1 must be
     set). Returns the
     piece's ``∫|w|``, or -1 where the sweep must measure it (the caller calls
-    ``_piece_area``). Inlined into :func:`_compare_one`: a kernel call per run
-    cost reference count updates of its array arguments.
+    ``_piece_area``). Inlined into :func:`_runs_pass`, which is compiled
+    without reference counting: a kernel call per run, or an inlined helper in a
+    reference-counted kernel, costs reference count updates of its array
+    arguments.
     """
     b = _NI * t
     p = wi[b + _P]
@@ -489,15 +490,7 @@ def _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc):
             k = kk if kk < n else kk - n
             px = rc[r0 + k, 0]
             py = rc[r0 + k, 1]
-            u = np.inf
-            j = p
-            while True:
-                j1 = j + 1 if j + 1 < m else 0
-                u = min(u, _point_segment(px, py, sc[s0 + j, 0], sc[s0 + j, 1],
-                                          sc[s0 + j1, 0], sc[s0 + j1, 1]))
-                j = j1
-                if j == q:
-                    break
+            u = _near_edge_distance(px, py, sc, s0, m, p, (q - p) % m)
             if u > best:
                 best = max(best, _to_ring_within(px, py, sc, s0, m, u))
     return best
