@@ -306,9 +306,13 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
             raw, stitched = stitch(raw)
     except Exception as exc:
         return [_row(mesh_index, name, i, s, None, _describe(exc)) for i, s in combos]
+
+    def share() -> _Shared:  # measures the mesh volume (a pass over the faces)
+        return _Shared(mesh, raw, stitched, schedule, mesh.volume,
+                       prep.seconds + time.perf_counter() - t)
+
     if cura:  # CuraEngine's own stages: no raw contours to share
-        shared = _Shared(mesh, raw, stitched, schedule, mesh.volume,
-                         prep.seconds + time.perf_counter() - t)
+        shared = share()
         return [_measured(mesh_index, name, i, s, _cura_model(shared, s), None,
                           shared, speed=speed, controller_ms=controller_ms)
                 for i, s in combos]
@@ -330,10 +334,9 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
         ahead: dict[int, Any] = {
             j: pool.submit(simplified, combos[j][1]) for j in range(min(2, len(combos)))
         }
-        # the mesh volume (a numpy pass over the faces, 0.1-0.25 s for a million)
-        # is measured here while the first two combinations are simplified
-        shared = _Shared(mesh, raw, stitched, schedule, mesh.volume,
-                         prep.seconds + time.perf_counter() - t)
+        # the mesh volume (0.1-0.25 s for a million faces) is measured here,
+        # while the first two combinations are simplified
+        shared = share()
         for n, (i, s) in enumerate(combos):
             for j in (n, n + 1):  # this combination (if not yet), and the next
                 if j < len(combos) and j not in ahead:
