@@ -109,7 +109,7 @@ _PLAN = types.Tuple((types.int32[::1], I64_1D_OUT, I64_1D_OUT, I64, I64,
                      types.int32[:, ::1]))
 
 
-@kernel(_PLAN(I64_2D, I64_1D, I64_1D, I64))
+@kernel(_PLAN(I64_2D, _I32_1D, I64_1D, I64))
 def _segment_plan(faces, twin, vert_layer, n_planes):
     """Where each face's segments go, segments per plane, open ends counted.
 
@@ -168,7 +168,7 @@ _ENDS = types.Tuple((I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT,
                      I64_1D_OUT))
 
 
-@kernel(_ENDS(I64_2D, I64_1D, I64_1D, _I32_1D, I64_1D, I64, I64))
+@kernel(_ENDS(I64_2D, _I32_1D, I64_1D, _I32_1D, I64_1D, I64, I64))
 def _open_ends(faces, twin, vert_layer, face_lo, face_offsets, n_in, n_out):
     """The open ends, in segment order, keyed by their crossing (edge, plane).
 
@@ -267,7 +267,7 @@ def _pair_ends(in_key, in_k, out_key, out_k):
 _OPEN = types.Tuple((I64_2D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT))
 
 
-@kernel(_OPEN(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, _I32_1D, I64_1D,
+@kernel(_OPEN(I64_2D, I64_2D, _I32_1D, I64_1D, I64_1D, I64_1D, _I32_1D, I64_1D,
               I64_1D, I64_1D, I64_1D, I64_1D, B1_1D, _U8_W))
 def _trace_open(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
                 face_offsets, in_seg, in_pair, out_face, out_k, out_has_prev,
@@ -306,7 +306,7 @@ def _trace_open(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
             s = face_offsets[f] + k - face_lo[f]
             out_visited[s] = 1
             n += 1
-            tw = twin[3 * f + up_of[_code(l0, l1, l2, k)]]
+            tw = np.int64(twin[3 * f + up_of[_code(l0, l1, l2, k)]])
             f = tw // 3 if tw >= 0 else _paired(in_seg, in_pair, out_face, s)
         chain_len[c] = n + 1
         chain_segs[k] += n
@@ -341,7 +341,7 @@ def _trace_open(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
             open_coords[pos, 1] = y
             pos += 1
             ju = up_of[code]
-            tw = twin[3 * f + ju]
+            tw = np.int64(twin[3 * f + ju])
             if tw >= 0:
                 f = tw // 3
                 continue
@@ -360,7 +360,7 @@ _I32_2D = types.Array(types.int32, 2, "C", readonly=True)
 
 
 @kernel(
-    types.void(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, _I32_1D, I64_1D,
+    types.void(I64_2D, I64_2D, _I32_1D, I64_1D, I64_1D, I64_1D, _I32_1D, I64_1D,
                _I32_2D, I64_1D, I64, I64, I64_1D, I64_1D, I64_1D, _U8_W,
                I64_2D_OUT, _U8_W, _I64_W, _U8_W),
 )
@@ -410,8 +410,8 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
                     out_visited[s] = 1
                     e1 = e + 1 if e < 2 else 0
                     e2 = e1 + 1 if e1 < 2 else 0
-                    t1 = twin[3 * f + e1]  # both candidates: no wait on the layer
-                    t2 = twin[3 * f + e2]
+                    t1 = np.int64(twin[3 * f + e1])  # both: no wait on the layer
+                    t2 = np.int64(twin[3 * f + e2])
                     x, y = _point_up(vertices, faces[f, e1], faces[f, e], zk)
                     out_coords[pos, 0] = x
                     out_coords[pos, 1] = y

@@ -170,6 +170,7 @@ def edge_face_counts(face_edges, n_edges):
 
 
 _PACK_LIMIT = 1 << 30  # vertices (and half-edges >> 2) below this pack into one int64
+TWIN_LIMIT = 1 << 31  # half-edges: ids below this fit the int32 twins
 _CHUNK_VERTICES = 1 << 15  # vertices per chunk of bucket matching (at most 16 chunks)
 
 
@@ -241,7 +242,7 @@ def _heapsort(a, lo, hi):
         a[lo + root] = x
 
 
-@kernel(types.void(I64_1D, types.int64[::1], I64, I64, types.int64[::1]))
+@kernel(types.void(I64_1D, types.int64[::1], I64, I64, types.int32[::1]))
 def _match_buckets(offsets, packed, v0, v1, out_twin):
     """Twins of the half-edges in the buckets of vertices ``v0:v1``.
 
@@ -282,11 +283,13 @@ def _match_buckets(offsets, packed, v0, v1, out_twin):
 
 
 def half_edge_twins(faces, n_vertices, run=run_serial):
-    """The ``twin`` result of :func:`edge_topology` alone, without numbering edges.
+    """The ``twin`` result of :func:`edge_topology` alone, as int32, without edge ids.
 
     ``twin[3 * f + j]`` is the opposite half-edge of the same edge where the edge
     has exactly two half-edges running in opposite directions, and -1 elsewhere.
-    This is all that slicing needs of the topology.
+    This is all that slicing needs of the topology. It is int32 (half the bytes
+    of int64 for the contour kernels to read): a mesh must have fewer than
+    ``TWIN_LIMIT`` (2**31) half-edges, about 716 million faces.
 
     Half-edges are bucketed by their smaller vertex (counting sort) as one int64
     each: the other vertex, the direction and the half-edge id packed together, so
@@ -298,14 +301,14 @@ def half_edge_twins(faces, n_vertices, run=run_serial):
     ``bounds[c]:bounds[c + 1]``, in any order or at once (e.g.
     ``vecslice._threads.run_chunks``); by default one after another.
 
-    Preconditions: as :func:`edge_topology`.
+    Preconditions: as :func:`edge_topology`; ``3 * len(faces) < TWIN_LIMIT``.
     """
     n_half = 3 * faces.shape[0]
-    if n_vertices >= _PACK_LIMIT or n_half >= 4 * _PACK_LIMIT:
-        return edge_topology(faces, n_vertices)[2]
+    if n_vertices >= _PACK_LIMIT:
+        return edge_topology(faces, n_vertices)[2].astype(np.int32)
     packed = np.empty(n_half, dtype=np.int64)
     offsets = _pack_half_edges(faces, n_vertices, packed)
-    twin = np.full(n_half, -1, dtype=np.int64)
+    twin = np.full(n_half, -1, dtype=np.int32)
     n_chunks = max(1, min(16, -(-n_vertices // _CHUNK_VERTICES)))
     bounds = (n_vertices * np.arange(n_chunks + 1, dtype=np.int64)) // n_chunks
     run(lambda v0, v1: _match_buckets(offsets, packed, v0, v1, twin), bounds)

@@ -166,20 +166,32 @@ class Mesh:
         v, f, info = state
         self._set(v, f, info)
 
-    def _half_edge_twins(self) -> NDArray[np.int64]:
-        """Twin of every half-edge (-1 where none), built once per mesh.
+    def _half_edge_twins(self) -> NDArray[np.int32]:
+        """Twin of every half-edge (-1 where none), int32, built once per mesh.
 
         ``twin[3 * f + j]`` is the half-edge that runs the other way along the edge
         from ``faces[f, j]`` to ``faces[f, (j + 1) % 3]`` when exactly two
         half-edges share that edge (see ``half_edge_twins``). The first call builds
         it and caches it on the mesh; threads that race on the first call may each
         build it (the results are equal), never a wrong one.
+
+        Raises
+        ------
+        InputValueError
+            If the mesh has too many faces for int32 half-edge ids (3 × faces must
+            stay below 2**31: at most 715,827,882 faces).
         """
         twins = self._twins
         if twins is None:
             from vecslice._kernels import topology
             from vecslice._threads import run_chunks
 
+            if 3 * self.n_faces >= topology.TWIN_LIMIT:
+                raise InputValueError(
+                    f"`mesh` has {self.n_faces:,} faces; slicing takes at most "
+                    f"{(topology.TWIN_LIMIT - 1) // 3:,} (its half-edges are "
+                    "numbered in int32)"
+                )
             n = self.vertices.shape[0]
             twins = _freeze(topology.half_edge_twins(self.faces, n, run=run_chunks))
             object.__setattr__(self, "_twins", twins)

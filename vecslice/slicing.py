@@ -92,6 +92,17 @@ def slice_contours(
         repeated); ``.open`` holds the chains that did not close, per layer.
         No simplification and no union.
 
+    Raises
+    ------
+    InputTypeError
+        If ``mesh`` is not a :class:`Mesh`, ``stitch`` not a bool, or
+        ``slice_z`` not integer.
+    InputValueError
+        If ``slice_z`` is not 1-D or reaches 2**30 µm, or the mesh has more
+        than 715,827,882 faces (half-edges are numbered in int32).
+    SettingsError
+        If there are more than ``max_layers`` heights.
+
     Notes
     -----
     Each mesh edge is intersected once with every plane it crosses, and both faces

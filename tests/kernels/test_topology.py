@@ -122,3 +122,18 @@ def test_heapsort_sorts_the_range_and_nothing_else(values, data):
     expect[lo:hi] = np.sort(expect[lo:hi])
     _heapsort(a, lo, hi)
     assert a.tolist() == expect.tolist()
+
+
+def test_half_edge_twins_are_int32_on_both_paths(monkeypatch):
+    # the packed path, and edge_topology's (taken from 2**30 vertices; the limit
+    # lowered here) give the same int32 twins
+    from vecslice._kernels import topology
+
+    mesh = trimesh.creation.icosphere()
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    packed = half_edge_twins(faces, len(mesh.vertices))
+    monkeypatch.setattr(topology, "_PACK_LIMIT", 4)
+    unpacked = topology.half_edge_twins(faces, len(mesh.vertices))
+    assert packed.dtype == unpacked.dtype == np.int32
+    assert packed.tolist() == unpacked.tolist() == edge_topology(
+        faces, len(mesh.vertices))[2].tolist()

@@ -255,3 +255,18 @@ def test_pickled_mesh_leaves_its_topology_behind_and_slices_the_same():
     again = vs.slice_contours(copy, [-5000, 0, 5000])
     assert again.coords.tolist() == first.coords.tolist()
     assert again.ring_offsets.tolist() == first.ring_offsets.tolist()
+
+
+def test_too_many_faces_for_int32_twins_is_a_clear_error(monkeypatch):
+    # the half-edge ids are int32: a mesh of 2**31 / 3 faces or more is refused
+    # by name before the topology is built (the limit lowered here: such a mesh
+    # would take 17 GB of faces)
+    from vecslice._kernels import topology
+
+    box = vs.load_mesh(trimesh.creation.box((10, 10, 10)))  # 12 faces
+    monkeypatch.setattr(topology, "TWIN_LIMIT", 36)
+    with pytest.raises(vs.InputValueError, match=r"`mesh` has 12 faces; slicing "
+                       r"takes at most 11 \(its half-edges are numbered in int32\)"):
+        vs.slice_contours(box, [0])
+    monkeypatch.setattr(topology, "TWIN_LIMIT", 37)
+    assert vs.slice_contours(box, [0]).layer_area2().tolist() == [200_000_000]
