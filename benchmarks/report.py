@@ -13,9 +13,10 @@ of 3DBenchy side by side), same 0.1 mm heights.
 
 The libraries are interleaved within each repeat (so a change of machine load hits
 all of them alike); ratios are taken within a repeat and reported as the median
-with the range over repeats. The table ends with the machine, its load while
-measuring, the thread pools each library started and the CPU time / wall time each
-used (its effective parallelism), and the library versions.
+with the range over repeats (a repeat of the scaling row is each size's median
+over ``SCALING_ROUNDS`` interleaved rounds). The table ends with the machine, its
+load while measuring, the thread pools each library started and the CPU time / wall
+time each used (its effective parallelism), and the library versions.
 """
 
 from __future__ import annotations
@@ -132,6 +133,31 @@ class Series:
     @property
     def parallelism(self) -> float:
         return sum(self.cpu) / sum(self.wall)
+
+
+SCALING_ROUNDS = 3  # rounds of the three sizes per repeat of the scaling row
+
+
+def scaling_repeat(timer: Timer, S: dict[str, Series], size_arrays: dict) -> None:
+    """One repeat of the scaling row: each size's median over interleaved rounds.
+
+    A run of 2 copies takes a twentieth of a second, so one call per size and
+    repeat leaves the step ratios at the mercy of a moment's memory traffic on
+    the machine; ``SCALING_ROUNDS`` rounds of (2, 4, 8 copies), each size's median
+    taken, give the repeat's sample (the same for every size).
+    """
+    walls: dict[int, list[float]] = {c: [] for c in size_arrays}
+    cpus: dict[int, list[float]] = {c: [] for c in size_arrays}
+    for _ in range(SCALING_ROUNDS):
+        for c, (v, faces, zc) in size_arrays.items():
+            _, wall, cpu = timer(vecslice_contours, v, faces, zc)
+            walls[c].append(wall)
+            cpus[c].append(cpu)
+    for c in size_arrays:
+        series = S[f"s{c}"]
+        series.wall.append(statistics.median(walls[c]))
+        series.cpu.append(statistics.median(cpus[c]))
+        series.threads = max(series.threads, timer.threads - 1)
 
 
 def ratio(a: Series, b: Series) -> tuple[float, float, float]:
@@ -273,8 +299,7 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         S["clip_c"].add(timer, clipper2.simplify_paths, circle_rings, eps, True)
         S["simp_b"].add(timer, vs.simplify, raw_paths)
         S["clip_b"].add(timer, clipper2.simplify_paths, raw_rings, eps, True)
-        for c, (v, faces, zc) in size_arrays.items():
-            S[f"s{c}"].add(timer, vecslice_contours, v, faces, zc)
+        scaling_repeat(timer, S, size_arrays)
         if not args.no_trimesh and rep < args.trimesh_repeat:
             S["vs1"].add(timer, vecslice_contours, v1_um, f1, z1)
             S["tm"].add(timer, trimesh_build_sections, v1_64, f1_64, z1 / 1000.0)
@@ -337,7 +362,8 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
     notes = [
         f"Measured {datetime.date.today().isoformat()} with `python benchmarks/"
         f"report.py` ({args.repeat} interleaved repeats; times are medians, "
-        "ratios the median over repeats with their range).",
+        "ratios the median over repeats with their range; in the scaling row a "
+        f"repeat is the median of {SCALING_ROUNDS} interleaved rounds of the sizes).",
         f"Workload: {args.copies} × 3DBenchy side by side, {n_faces:,} faces, "
         f"{len(z)} layers at 0.1 mm, {loops.coords.shape[0] / 1e6:.2f} M crossings.",
         f"Machine: {platform.machine()}, {os.cpu_count()} cores "
