@@ -182,3 +182,28 @@ def test_real_layers_deviation_matches_brute_force(meshes_dir):
                 continue
             assert d1[r] == ref.max_vertex_distance(a, b)
             assert d2[r] == ref.max_vertex_distance(b, a)
+
+
+def test_many_revisited_runs_match_brute_force():
+    # a thin 1000 x 10 µm box whose top edge has 101 vertices; between every two
+    # a vertex dips onto the bottom edge (distance 0 there, but 10 µm from its
+    # own run's top edge), one of them only to y = 3. Every run's bound exceeds
+    # the first exact distance, so all 100 runs are revisited, the one that
+    # matters late. Raw -> simplified with the dips in the raw ring, simplified
+    # -> raw with them as moved simplified vertices.
+    top = [(1000 - 10 * i, 10) for i in range(101)]
+    dips = [(995 - 10 * i, 3 if i == 90 else 0) for i in range(100)]
+    with_dips = [(0, 0), (1000, 0)]
+    for i in range(100):
+        with_dips += [top[i], dips[i]]
+    with_dips.append(top[100])
+    plain = [(0, 0), (1000, 0), *top]
+    a, b = np.array(with_dips), np.array(plain)
+    _check([a], [b])
+    _check([b], [a])
+    rc, ro = _ragged([a])
+    sc, so = _ragged([b])
+    d1, d2, _, _ = compare_rings(rc, ro, sc, so)
+    assert (d1[0], d2[0]) == (3.0, 0.0)
+    d1, d2, _, _ = compare_rings(sc, so, rc, ro)
+    assert (d1[0], d2[0]) == (0.0, 3.0)
