@@ -169,7 +169,7 @@ def edge_face_counts(face_edges, n_edges):
 
 
 
-_PACK_LIMIT = 1 << 30  # vertices (and half-edges >> 2) below this pack into one int64
+_PACK_LIMIT = 1 << 30  # vertices below this pack into one int64 (with ids < 2**32)
 TWIN_LIMIT = 1 << 31  # half-edges: ids below this fit the int32 twins
 _CHUNK_VERTICES = 1 << 15  # vertices per chunk of bucket matching (at most 16 chunks)
 
