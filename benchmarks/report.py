@@ -121,10 +121,14 @@ class Series:
 
     def add(self, timer: Timer, fn, *args):
         out, wall, cpu = timer(fn, *args)
+        self.record(timer, wall, cpu)
+        return out
+
+    def record(self, timer: Timer, wall: float, cpu: float) -> None:
+        """One sample: wall and CPU seconds, and the threads ``timer`` has seen."""
         self.wall.append(wall)
         self.cpu.append(cpu)
         self.threads = max(self.threads, timer.threads - 1)  # less the watcher
-        return out
 
     @property
     def median(self) -> float:
@@ -154,10 +158,8 @@ def scaling_repeat(timer: Timer, S: dict[str, Series], size_arrays: dict) -> Non
             walls[c].append(wall)
             cpus[c].append(cpu)
     for c in size_arrays:
-        series = S[f"s{c}"]
-        series.wall.append(statistics.median(walls[c]))
-        series.cpu.append(statistics.median(cpus[c]))
-        series.threads = max(series.threads, timer.threads - 1)
+        S[f"s{c}"].record(timer, statistics.median(walls[c]),
+                          statistics.median(cpus[c]))
 
 
 def ratio(a: Series, b: Series) -> tuple[float, float, float]:
