@@ -60,6 +60,8 @@ from .pieces import (
     _separator,
 )
 from .planar import (
+    _edge_distance,
+    _near_edge,
     _near_edge_distance,
     _to_ring,
     _to_ring_within,
@@ -72,6 +74,7 @@ _WF = types.float64[::1]
 _WB = types.boolean[::1]
 _F64_OUT = types.float64[::1]
 _B1_OUT = types.boolean[::1]
+_BELOW = 1.0 - 2.0**-40  # see the multi-edge runs of _run
 
 
 @kernel(B1(I64_2D, I64, I64, I64_2D, I64, I64, _W1))
@@ -351,16 +354,26 @@ def _run(rc, r0, n, sc, s0, m, wi, wf, t, npc):
         area = acc / np.float64(len2) if mono else -1.0
     else:
         ub = 0.0
+        un = 0.0  # num / den: the squared distance _near_edge chose for ub
+        ud = 1.0
         for kk in range(ap, aq + 1):
             k = kk if kk < n else kk - n
             px = rc[r0 + k, 0]
             py = rc[r0 + k, 1]
             # the nearest simplified edge p..q-1, measured exactly: at least
-            # the vertex's distance to the ring
-            best = _near_edge_distance(px, py, sc, s0, m, p, (q - p) % m)
-            if best > ub:
-                ub = best
-                kmax = k
+            # the vertex's distance to the ring. Measured only when its squared
+            # distance is not below ub's by the margin _BELOW: the measured
+            # distances square to num / den within a few roundings (2**-50), so
+            # a vertex below the margin cannot exceed ub (ub and kmax are those
+            # of measuring every vertex)
+            bn, bd, near = _near_edge(px, py, sc, s0, m, p, (q - p) % m)
+            if bn * ud >= un * bd * _BELOW:
+                best = _edge_distance(px, py, sc, s0, m, near)
+                if best > ub:
+                    ub = best
+                    kmax = k
+                    un = bn
+                    ud = bd
         h = np.inf  # no band: the piece has no single chord
         # box and sides over the piece's vertices: raw ap..aq, then simplified
         # p..q-1 (one loop over both chains)

@@ -52,14 +52,14 @@ def _point_segment(px, py, ax, ay, bx, by):
 
 
 @kernel(inline="always")
-def _near_edge_distance(px, py, c, start, n, i, count):
-    """Distance from p to the nearest of edges ``i .. i+count-1`` of a ring.
+def _near_edge(px, py, c, start, n, i, count):
+    """The nearest of edges ``i .. i+count-1`` of a ring to p: ``(num, den, k)``.
 
     The ring is ``c[start:start + n]`` (edge k joins vertex k to k+1, mod n;
     ``0 <= i < n``). The edge is chosen by squared distance without a square
-    root or a division (``num1 * den2 < num2 * den1``) and measured by
-    :func:`_point_segment`: that value bounds the true minimum over these edges
-    from above, whichever edge rounding chose. ``inf`` when ``count`` is 0.
+    root or a division (``num1 * den2 < num2 * den1``, float64); ``num / den``
+    is the chosen edge's squared distance (``den`` 1 when an end point is
+    nearest), ``k`` the edge, or -1 (and ``num`` inf) when ``count`` is 0.
     """
     bn = np.inf
     bd = 1.0
@@ -79,11 +79,29 @@ def _near_edge_distance(px, py, c, start, n, i, count):
             bd = den
             near = k
         k = k1
-    if near < 0:
+    return bn, bd, near
+
+
+@kernel(inline="always")
+def _edge_distance(px, py, c, start, n, k):
+    """:func:`_point_segment` from p to edge ``k`` of the ring; inf when k < 0."""
+    if k < 0:
         return np.inf
-    k1 = near + 1 if near + 1 < n else 0
-    return _point_segment(px, py, c[start + near, 0], c[start + near, 1],
+    k1 = k + 1 if k + 1 < n else 0
+    return _point_segment(px, py, c[start + k, 0], c[start + k, 1],
                           c[start + k1, 0], c[start + k1, 1])
+
+
+@kernel(inline="always")
+def _near_edge_distance(px, py, c, start, n, i, count):
+    """Distance from p to the nearest of edges ``i .. i+count-1`` of a ring.
+
+    The edge of :func:`_near_edge`, measured by :func:`_point_segment`: that
+    value bounds the true minimum over these edges from above, whichever edge
+    rounding chose. ``inf`` when ``count`` is 0.
+    """
+    return _edge_distance(px, py, c, start, n,
+                          _near_edge(px, py, c, start, n, i, count)[2])
 
 
 @kernel(F64(I64, I64, I64_2D, I64, I64), inline="always")

@@ -207,3 +207,68 @@ def test_many_revisited_runs_match_brute_force():
     assert (d1[0], d2[0]) == (3.0, 0.0)
     d1, d2, _, _ = compare_rings(sc, so, rc, ro)
     assert (d1[0], d2[0]) == (0.0, 3.0)
+
+
+def _run_records(raw, simp):
+    """Each run's (UB, KMAX) from ``_runs_pass``, and the same measured at every
+    raw vertex of the run (the first largest wins), for runs of several edges."""
+    from vecslice._kernels import pieces as P
+    from vecslice._kernels.metrics import _match, _runs_pass
+    from vecslice._kernels.planar import _near_edge_distance
+
+    n, m = len(raw), len(simp)
+    anchor = np.empty(n + m + 1, np.int64)
+    assert _match(raw, 0, n, simp, 0, m, anchor)
+    first = int(np.flatnonzero(anchor[:m] >= 0)[0])
+    npc = int((anchor[:m] >= 0).sum())
+    wi = np.zeros(P._NI * (n + m + 1), np.int64)
+    wf = np.zeros(P._NF * (n + m + 1), np.float64)
+    e = np.zeros((n + m + 1, 4), np.int64)
+    _runs_pass(raw, 0, n, simp, 0, m, anchor, first, wi, wf, e, npc)
+    got, want = [], []
+    for t in range(npc):
+        b = P._NI * t
+        p, q, ap, aq = (int(wi[b + k]) for k in (P._P, P._Q, P._AP, P._AQ))
+        if (q - p) % m < 2:
+            continue
+        ub, kmax = 0.0, ap
+        for kk in range(ap, aq + 1):
+            k = kk % n
+            d = _near_edge_distance(raw[k, 0], raw[k, 1], simp, 0, m, p, (q - p) % m)
+            if d > ub:
+                ub, kmax = d, k
+        got.append((wf[P._NF * t + P._UB], int(wi[b + P._KMAX])))
+        want.append((ub, kmax))
+    return got, want
+
+
+@settings(max_examples=60)
+@given(star_rings(min_n=12, max_n=40), st.data())
+def test_multi_edge_runs_bound_as_measuring_every_vertex(ring, data):
+    # runs of several simplified edges (a moved vertex inside) measure only the
+    # raw vertices whose squared distance may beat the largest so far: their
+    # bound and its vertex are those of measuring every raw vertex, bit for bit
+    n = len(ring)
+    keep = sorted(data.draw(st.sets(st.integers(0, n - 1), min_size=3,
+                                    max_size=n // 2)))
+    simp = []
+    for j, i in enumerate(keep):
+        simp.append(ring[i])
+        nxt = keep[(j + 1) % len(keep)]
+        if (nxt - i) % n > 2 and data.draw(st.booleans()):  # a moved vertex
+            mid = ring[(i + (nxt - i) % n // 2) % n]
+            simp.append(mid + data.draw(st.tuples(st.integers(-30, 30),
+                                                  st.integers(-30, 30))))
+    got, want = _run_records(ring, np.array(simp, np.int64))
+    assert got == want
+
+
+def test_multi_edge_run_with_equal_distances_keeps_the_first():
+    # raw vertices at exactly equal distance from the run's two edges: the first
+    # of them holds the bound (later ones are equal, never larger)
+    raw = np.array([(0, 0), (10, 5), (20, 5), (30, 5), (40, 0), (40, 40), (0, 40)])
+    simp = np.array([(0, 0), (20, 1), (40, 0), (40, 40), (0, 40)])
+    got, want = _run_records(raw, simp)
+    assert got == want and len(got) == 1
+    assert got[0][1] == 1
+
