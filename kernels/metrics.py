@@ -74,6 +74,7 @@ _WF = types.float64[::1]
 _WB = types.boolean[::1]
 _F64_OUT = types.float64[::1]
 _B1_OUT = types.boolean[::1]
+_NONE = np.int64(2**62)  # no coordinate (|coordinates| < 2**30)
 _BELOW = 1.0 - 2.0**-40  # see the multi-edge runs of _run
 
 
@@ -90,6 +91,12 @@ def _match(rc, r0, n, sc, s0, m, anchor):
     for j in range(m):
         sx = sc[s0 + j, 0]
         sy = sc[s0 + j, 1]
+        # the next two simplified vertices (_NONE, equal to no coordinate,
+        # past the end)
+        ax = sc[s0 + j + 1, 0] if j + 1 < m else _NONE
+        ay = sc[s0 + j + 1, 1] if j + 1 < m else _NONE
+        bx = sc[s0 + j + 2, 0] if j + 2 < m else _NONE
+        by = sc[s0 + j + 2, 1] if j + 2 < m else _NONE
         anchor[j] = -1
         kk = k
         while kk < n:
@@ -97,15 +104,15 @@ def _match(rc, r0, n, sc, s0, m, anchor):
             if budget < 0:
                 return False
             x = rc[r0 + kk, 0]
-            y = rc[r0 + kk, 1]
-            if x == sx and y == sy:
-                anchor[j] = kk
-                k = kk + 1
-                break
-            if j + 1 < m and x == sc[s0 + j + 1, 0] and y == sc[s0 + j + 1, 1]:
-                break
-            if j + 2 < m and x == sc[s0 + j + 2, 0] and y == sc[s0 + j + 2, 1]:
-                break
+            # one test of x against all three first (& and |: one branch)
+            if (x == sx) | (x == ax) | (x == bx):
+                y = rc[r0 + kk, 1]
+                if x == sx and y == sy:
+                    anchor[j] = kk
+                    k = kk + 1
+                    break
+                if (x == ax and y == ay) or (x == bx and y == by):
+                    break
             kk += 1
     return True
 

@@ -272,3 +272,36 @@ def test_multi_edge_run_with_equal_distances_keeps_the_first():
     assert got == want and len(got) == 1
     assert got[0][1] == 1
 
+
+def _anchors(raw, simp):
+    from vecslice._kernels.metrics import _match
+
+    raw, simp = np.array(raw, np.int64), np.array(simp, np.int64)
+    anchor = np.empty(len(simp), np.int64)
+    ok = _match(raw, 0, len(raw), simp, 0, len(simp), anchor)
+    return ok, anchor.tolist()
+
+
+def test_match_anchors_in_order_and_skips_moved_vertices():
+    raw = [(0, 0), (5, 1), (10, 0), (15, 1), (20, 0), (20, 20), (0, 20)]
+    # a subsequence: each vertex anchored to the raw vertex it equals
+    assert _anchors(raw, [(0, 0), (10, 0), (20, 0), (20, 20)]) == (True, [0, 2, 4, 5])
+    # a moved vertex (equal to no raw vertex) is -1; the scan for it stops at
+    # the next simplified vertex, which is still found
+    assert _anchors(raw, [(0, 0), (12, 3), (20, 0), (0, 20)]) == (True, [0, -1, 4, 6])
+    # ... or at the one after it (two moved in a row)
+    assert _anchors(raw, [(0, 0), (12, 3), (13, 3), (20, 20)]) == (True,
+                                                                     [0, -1, -1, 5])
+    # the last simplified vertices, with nothing after them to stop at
+    assert _anchors(raw, [(0, 0), (20, 20), (7, 7)]) == (True, [0, 5, -1])
+    # out of order: the scan for (10, 0) stops at (0, 0), the next simplified
+    # vertex, which is anchored instead
+    assert _anchors(raw, [(10, 0), (0, 0)]) == (True, [-1, 0])
+
+
+def test_match_gives_up_beyond_its_linear_budget():
+    # every simplified vertex is missing: each scans the rest of the raw ring
+    raw = [(i, 0) for i in range(200)]
+    simp = [(-1 - j, 5) for j in range(50)]
+    ok, _ = _anchors(raw, simp)
+    assert not ok
