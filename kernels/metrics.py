@@ -630,18 +630,21 @@ def _compare_one(rc, r0, n, sc, s0, m, anchor, wi, wf, ub, e):
 
 
 @kernel(
-    types.void(I64_2D, I64_1D, I64_2D, I64_1D, I64, I64, _WF, _WF, _WF, _WB)
+    types.void(I64_2D, I64_1D, I64_2D, I64_1D, I64_1D, I64, I64, _WF, _WF, _WF,
+               _WB)
 )
-def compare_range(raw, raw_offsets, simp, simp_offsets, r0, r1, out_raw_to_simp,
-                  out_simp_to_raw, out_xor_area, out_linear):
-    """:func:`compare_rings` of rings ``r0 .. r1-1``, into the ``out_*`` arrays.
+def compare_range(raw, raw_offsets, simp, simp_offsets, rings, i0, i1,
+                  out_raw_to_simp, out_simp_to_raw, out_xor_area, out_linear):
+    """:func:`compare_rings` of rings ``rings[i0:i1]``, into the ``out_*`` arrays.
 
-    Serial: ``vecslice.metrics`` runs disjoint ranges on a few threads (the
-    kernel releases the GIL; a serial kernel compiles much faster than a
-    ``parallel=True`` one).
+    Ring ``rr = rings[i]`` is measured into ``out_*[rr]``; the other entries are
+    left as they are. Serial: ``vecslice.metrics`` runs disjoint ranges on a few
+    threads (the kernel releases the GIL; a serial kernel compiles much faster
+    than a ``parallel=True`` one).
     """
     size = 1
-    for rr in range(r0, r1):
+    for i in range(i0, i1):
+        rr = rings[i]
         size = max(size, raw_offsets[rr + 1] - raw_offsets[rr]
                    + simp_offsets[rr + 1] - simp_offsets[rr])
     anchor = np.empty(size + 1, np.int64)
@@ -649,7 +652,8 @@ def compare_range(raw, raw_offsets, simp, simp_offsets, r0, r1, out_raw_to_simp,
     wf = np.empty(_NF * (size + 1), np.float64)
     ub = np.empty(size + 1, np.float64)
     e = np.empty((size + 1, 4), np.int64)
-    for rr in range(r0, r1):
+    for i in range(i0, i1):
+        rr = rings[i]
         a0 = raw_offsets[rr]
         b0 = simp_offsets[rr]
         d1, d2, a, lin = _compare_one(
@@ -681,6 +685,7 @@ def compare_rings(raw, raw_offsets, simp, simp_offsets):
     out2 = np.empty(n_rings, np.float64)
     area = np.empty(n_rings, np.float64)
     linear = np.zeros(n_rings, np.bool_)
-    compare_range(raw, raw_offsets, simp, simp_offsets, 0, n_rings, out1, out2,
-                  area, linear)
+    compare_range(raw, raw_offsets, simp, simp_offsets,
+                  np.arange(n_rings, dtype=np.int64), 0, n_rings, out1, out2, area,
+                  linear)
     return out1, out2, area, linear

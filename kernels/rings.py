@@ -4,7 +4,7 @@ import numpy as np
 from numba import types
 
 from ._jit import kernel
-from ._types import B1_1D, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+from ._types import B1_1D, B1_1D_OUT, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 
 
 @kernel(I64_1D_OUT(I64_2D, I64_1D))
@@ -102,3 +102,53 @@ def take_rings(coords, ring_offsets, keep):
             i += 1
             offsets[i] = j
     return out, offsets
+
+
+_MIX = np.uint64(0x9E3779B97F4A7C15)  # unsigned: products wrap (defined)
+_SHIFT = np.uint64(29)
+
+
+@kernel(I64_1D_OUT(I64_2D, I64_1D))
+def ring_keys(coords, ring_offsets):
+    """A 64-bit key of each ring: its index, vertex count and coordinates, mixed.
+
+    Equal keys for ring ``r`` of two arrays when both rings ``r`` have the same
+    vertices in the same order. Different rings may share a key (rarely): a
+    caller that reuses something by key confirms with :func:`rings_equal`.
+    The mixing is unsigned (uint64 products wrap; int64 overflow would be
+    undefined to LLVM). Preconditions: offsets valid.
+    """
+    n_rings = ring_offsets.shape[0] - 1
+    out = np.empty(n_rings, dtype=np.int64)
+    for r in range(n_rings):
+        start, stop = ring_offsets[r], ring_offsets[r + 1]
+        h = np.uint64(r + 1) * _MIX
+        h = (h ^ np.uint64(stop - start)) * _MIX
+        for v in range(start, stop):
+            h = (h ^ np.uint64(coords[v, 0])) * _MIX
+            h = (h ^ np.uint64(coords[v, 1])) * _MIX
+            h ^= h >> _SHIFT
+        out[r] = np.int64(h)
+    return out
+
+
+@kernel(B1_1D_OUT(I64_2D, I64_1D, I64_1D, I64_2D, I64_1D, I64_1D))
+def rings_equal(a, a_offsets, ia, b, b_offsets, ib):
+    """``out[k]``: ring ``ia[k]`` of ``a`` has the vertices of ring ``ib[k]`` of ``b``.
+
+    The same vertex count and the same vertices in the same order.
+    Preconditions: offsets valid; the indices within them; ``len(ia) == len(ib)``.
+    """
+    n = ia.shape[0]
+    out = np.empty(n, dtype=np.bool_)
+    for k in range(n):
+        sa = a_offsets[ia[k]]
+        sb = b_offsets[ib[k]]
+        m = a_offsets[ia[k] + 1] - sa
+        same = m == b_offsets[ib[k] + 1] - sb
+        i = 0
+        while same and i < m:
+            same = a[sa + i, 0] == b[sb + i, 0] and a[sa + i, 1] == b[sb + i, 1]
+            i += 1
+        out[k] = same
+    return out

@@ -150,20 +150,31 @@ class ContourErrors:
 def _compare_rings(
     raw: NDArray[np.int64], raw_offsets: NDArray[np.int64],
     simp: NDArray[np.int64], simp_offsets: NDArray[np.int64],
-    threads: int | None = None,
+    threads: int | None = None, rings: NDArray[np.int64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
            NDArray[np.bool_]]:
     """The kernel ``compare_rings`` on threads, same results.
 
     Chunks of ring pairs of about equal vertex counts, each measured by the
     kernel ``compare_range``; up to ``threads`` threads (default numba's).
+    ``rings``: measure only these ring pairs (ascending indices); the other
+    entries of the results are then unset (NaN, NaN, NaN, False).
     """
     n = raw_offsets.shape[0] - 1
     d1, d2 = np.empty(n, dtype=np.float64), np.empty(n, dtype=np.float64)
     area, linear = np.empty(n, dtype=np.float64), np.zeros(n, dtype=np.bool_)
-    run_chunks(lambda r0, r1: compare_range(raw, raw_offsets, simp, simp_offsets,
-                                            r0, r1, d1, d2, area, linear),
-               chunk_bounds(raw_offsets + simp_offsets, threads), threads)
+    if rings is None:
+        rings = np.arange(n, dtype=np.int64)
+        sizes = raw_offsets + simp_offsets  # cumulative sizes of every pair
+    else:
+        for out in (d1, d2, area):
+            out.fill(np.nan)
+        sizes = np.zeros(rings.shape[0] + 1, dtype=np.int64)
+        np.cumsum(np.diff(raw_offsets)[rings] + np.diff(simp_offsets)[rings],
+                  out=sizes[1:])
+    run_chunks(lambda i0, i1: compare_range(raw, raw_offsets, simp, simp_offsets,
+                                            rings, i0, i1, d1, d2, area, linear),
+               chunk_bounds(sizes, threads), threads)
     return d1, d2, area, linear
 
 
@@ -237,6 +248,15 @@ def _contour_errors(raw: LayerPaths, simplified: LayerPaths,
         raw.coords, raw.ring_offsets, simplified.coords, simplified.ring_offsets,
         threads,
     )
+    return _errors_of(raw, (d1, d2, area, linear), raw_area_um2)
+
+
+def _errors_of(raw: LayerPaths,
+               measured: tuple[NDArray[np.float64], NDArray[np.float64],
+                               NDArray[np.float64], NDArray[np.bool_]],
+               raw_area_um2: NDArray[np.float64] | None = None) -> ContourErrors:
+    """:class:`ContourErrors` of ``raw`` from ``compare_rings``' four arrays."""
+    d1, d2, area, linear = measured
     return ContourErrors(
         raw_to_simplified_um=d1,
         simplified_to_raw_um=d2,

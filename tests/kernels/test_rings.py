@@ -3,7 +3,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import reference
-from vecslice._kernels.rings import group_rings, ring_area2, take_rings
+from vecslice._kernels.rings import (
+    group_rings,
+    ring_area2,
+    ring_keys,
+    rings_equal,
+    take_rings,
+)
 
 coord = st.integers(-(2**30) + 1, 2**30 - 1)
 
@@ -60,3 +66,58 @@ def test_take_rings_keeps_the_chosen_rings_in_order(lengths, rnd):
     rings = [coords[offsets[i]:offsets[i + 1]] for i in range(len(lengths)) if keep[i]]
     assert got_o.tolist() == [0, *np.cumsum([len(r) for r in rings]).tolist()]
     assert got_c.tolist() == (np.concatenate(rings).tolist() if rings else [])
+
+
+@given(ragged_rings(), ragged_rings(), st.data())
+def test_rings_equal_matches_numpy(a, b, data):
+    ca, oa = a
+    cb, ob = b
+    na, nb = len(oa) - 1, len(ob) - 1
+    if na == 0 or nb == 0:
+        return
+    k = data.draw(st.integers(1, 8))
+    ia = np.array(data.draw(st.lists(st.integers(0, na - 1), min_size=k, max_size=k)))
+    ib = np.array(data.draw(st.lists(st.integers(0, nb - 1), min_size=k, max_size=k)))
+    want = [np.array_equal(ca[oa[i]:oa[i + 1]], cb[ob[j]:ob[j + 1]])
+            for i, j in zip(ia, ib, strict=True)]
+    assert rings_equal(ca, oa, ia, cb, ob, ib).tolist() == want
+
+
+def test_rings_equal_itself_and_a_copy_with_one_vertex_moved():
+    coords = np.array([[0, 0], [5, 0], [5, 5], [1, 1], [2, 2], [3, 3]], np.int64)
+    offsets = np.array([0, 3, 6], np.int64)
+    other = coords.copy()
+    other[4, 1] += 1
+    both = np.array([0, 1])
+    assert rings_equal(coords, offsets, both, coords, offsets, both).tolist() == [
+        True, True]
+    assert rings_equal(coords, offsets, both, other, offsets, both).tolist() == [
+        True, False]
+    # rings of different lengths differ even where one starts like the other
+    assert not rings_equal(coords, np.array([0, 2, 6]), np.array([0]), coords,
+                           offsets, np.array([0]))[0]
+
+
+@given(ragged_rings())
+def test_ring_keys_depend_on_the_ring_and_its_index(case):
+    coords, offsets = case
+    keys = ring_keys(coords, offsets)
+    assert keys.shape == (len(offsets) - 1,)
+    # the same rings in a fresh array: the same keys
+    assert np.array_equal(ring_keys(coords.copy(), offsets.copy()), keys)
+    # an empty ring in front moves every ring to the next index: the same ring
+    # under another index has another key
+    shifted = ring_keys(coords, np.concatenate([[0], offsets]))
+    assert not (shifted[1:] == keys).any()
+
+
+def test_ring_keys_see_every_coordinate_and_the_vertex_count():
+    base = np.array([[10, 20], [30, 40], [50, 60]], np.int64)
+    key = ring_keys(base, np.array([0, 3]))[0]
+    for i in range(3):
+        for c in range(2):
+            moved = base.copy()
+            moved[i, c] += 1
+            assert ring_keys(moved, np.array([0, 3]))[0] != key
+    assert ring_keys(base[:2], np.array([0, 2]))[0] != key
+    assert ring_keys(base[[1, 2, 0]], np.array([0, 3]))[0] != key  # rotated
