@@ -280,10 +280,14 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
     The combinations' stages run as a pipeline on two threads besides this one:
     while a combination's parts are made here (manifold3d, mostly one core), its
     errors are measured and the next combination is simplified, so that the
-    cores stay busy; each kernel then runs on one thread.
+    cores stay busy; each kernel then runs on one thread. The errors of a ring
+    that simplified as in an earlier combination are reused
+    (:class:`vecslice.errorcache.ErrorCache`).
     """
     from vecslice._validate import check_layer_count
+    from vecslice.errorcache import ErrorCache
     from vecslice.layers import layer_heights
+    from vecslice.paths import LayerPaths
     from vecslice.pipeline import _clean_closed, _kept_loops
     from vecslice.slicing import _contours
     from vecslice.stitch import stitch
@@ -319,6 +323,11 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
     kept: dict[int, Any] = {}  # perimeter filters, by minimum circumference
     kept_lock = threading.Lock()
     raw_area = raw.layer_area2().astype(np.float64) / 2  # µm² per raw layer
+    # a ring that comes out of simplification as in an earlier combination
+    # takes that combination's errors (the same pair: the same numbers)
+    cache = ErrorCache(
+        LayerPaths._trusted(raw.coords, raw.ring_offsets, raw.layer_offsets),
+        raw_area)
 
     def simplified(s: SliceSettings) -> tuple[Any, float]:
         t = time.perf_counter()
@@ -344,7 +353,7 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
             errors = None
             try:
                 rings, simplify_seconds = ahead.pop(n).result()
-                errors = pool.submit(_timed, _errors, raw, rings, raw_area, 1)
+                errors = pool.submit(_timed, cache.errors, *rings, 1)
                 model, seconds = _timed(_model, raw, stitched, schedule, s, rings)
                 made: Any = (model, seconds + simplify_seconds)
             except Exception as exc:

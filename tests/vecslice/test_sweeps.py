@@ -243,6 +243,7 @@ def test_a_failing_combination_gives_its_row_an_error(monkeypatch, stage):
     # combination fills its row's error, and the others come out as without it
     import vecslice.pipeline as pipeline
     import vecslice.sweeps as sweeps
+    from vecslice.errorcache import ErrorCache
 
     # 64-gon layers with ~490 µm edges: each max_resolution keeps other vertices
     mesh = vs.load_mesh(trimesh.creation.cylinder(5, 2, sections=64))
@@ -256,7 +257,7 @@ def test_a_failing_combination_gives_its_row_an_error(monkeypatch, stage):
         "simplify": (pipeline, "_clean_closed",
                      lambda a: a[1].max_resolution == 500),
         "parts": (sweeps, "_model", lambda a: a[3].max_resolution == 500),
-        "errors": (sweeps, "_errors", lambda a: a[1][0].shape[0] == sizes[1]),
+        "errors": (ErrorCache, "errors", lambda a: a[1].shape[0] == sizes[1]),
     }[stage]
     real = getattr(module, name)
 
