@@ -98,8 +98,7 @@ class ErrorCache:
         store = self._store  # replaced, never changed: read without the lock
         keys = ring_keys(coords, offsets)
         n = keys.shape[0]
-        hit = np.zeros(n, dtype=np.bool_)
-        found = np.full(n, -1, dtype=np.int64)
+        found = np.full(n, -1, dtype=np.int64)  # the stored pair of each ring
         if store.keys.shape[0]:
             pos = np.minimum(np.searchsorted(store.keys, keys),
                              store.keys.shape[0] - 1)
@@ -111,10 +110,9 @@ class ErrorCache:
                 if sel.shape[0]:
                     same[sel] = rings_equal(coords, offsets, cand[sel], b, b_offsets,
                                             store.ring[ver[sel]])
-            hit[cand[same]] = True
             found[cand[same]] = ver[same]
-        todo = np.flatnonzero(~hit)
-        reuse = np.flatnonzero(hit)
+        todo = np.flatnonzero(found < 0)
+        reuse = np.flatnonzero(found >= 0)
         d1, d2, area, linear = _compare_rings(
             raw.coords, raw.ring_offsets, coords, offsets, threads,
             rings=None if todo.shape[0] == n else todo)
