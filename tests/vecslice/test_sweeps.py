@@ -274,3 +274,35 @@ def test_a_failing_combination_gives_its_row_an_error(monkeypatch, stage):
     assert np.isnan(t["vertices"][1]) and np.isnan(t["max_deviation_um"][1])
     _same_table(t[~failed].reset_index(drop=True).astype(clean.dtypes.to_dict()),
                 clean[~failed].reset_index(drop=True))
+
+
+def test_helper_threads_run_their_kernels_alone_and_lower(monkeypatch, box):
+    # the pipeline's helpers (simplifying ahead, measuring errors) use one numba
+    # thread each and, on Linux, a nice value HELPER_NICE above the thread that
+    # started them; the caller's own thread keeps its priority
+    import numba
+
+    import vecslice.pipeline as pipeline
+    import vecslice.sweeps as sweeps
+
+    linux = sys.platform.startswith("linux")
+    seen = []
+    real = pipeline._clean_closed
+
+    def spy(*args, **kw):
+        tid = threading.get_native_id()
+        seen.append((threading.current_thread().name, numba.get_num_threads(),
+                     os.getpriority(os.PRIO_PROCESS, tid) if linux else None))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(pipeline, "_clean_closed", spy)
+    base = os.getpriority(os.PRIO_PROCESS, threading.get_native_id()) if linux else None
+    threads = numba.get_num_threads()
+    vs.sweep({"box": box}, {"max_resolution": [200, 500, 900]})
+    assert len(seen) == 3
+    assert all(name.startswith("vecslice-sweep") for name, _, _ in seen)
+    assert all(n == 1 for _, n, _ in seen)
+    if linux:
+        assert all(p == min(19, base + sweeps.HELPER_NICE) for _, _, p in seen)
+        assert os.getpriority(os.PRIO_PROCESS, threading.get_native_id()) == base
+    assert numba.get_num_threads() == threads
