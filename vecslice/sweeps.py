@@ -594,6 +594,16 @@ def sweep(
     ImportError
         If pandas or dask is missing (``pip install 'vecslice[sweep]'``).
 
+    Notes
+    -----
+    Each (mesh, layer schedule) task loads the mesh and cuts its raw contours
+    once; its combinations run as a pipeline on the task's thread (the parts)
+    and two helper threads (simplifying ahead, measuring errors) that the task
+    starts and ends. The helpers' kernels use one thread each and, on Linux,
+    run at a nice value :data:`HELPER_NICE` higher than the task's thread, so
+    that the parts run first. A ring that simplifies as in an earlier
+    combination of the task takes that combination's errors (the same numbers).
+
     Examples
     --------
     >>> import trimesh, vecslice as vs
