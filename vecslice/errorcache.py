@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice._kernels.rings import ring_keys, rings_equal
-from vecslice.metrics import ContourErrors, _compare_rings, _errors_of
+from vecslice.metrics import ContourErrors, _compare_rings, _errors_of, _raw_area_um2
 from vecslice.paths import LayerPaths
 
 __all__ = ["ErrorCache"]
@@ -76,8 +76,8 @@ class ErrorCache:
     def __init__(self, raw: LayerPaths, raw_area_um2: NDArray[np.float64] | None = None,
                  max_vertices: int | None = None) -> None:
         self.raw = raw
-        self.raw_area_um2 = (raw.layer_area2().astype(np.float64) / 2
-                             if raw_area_um2 is None else raw_area_um2)
+        self.raw_area_um2 = (_raw_area_um2(raw) if raw_area_um2 is None
+                             else raw_area_um2)
         self.max_vertices = (int(raw.coords.shape[0]) if max_vertices is None
                              else int(max_vertices))
         self._store = _empty_store()

@@ -263,9 +263,13 @@ def _errors_of(raw: LayerPaths,
         xor_area_um2=area,
         linear=linear,
         ring_layer=raw.ring_layer(),
-        raw_area_um2=(raw.layer_area2().astype(np.float64) / 2
-                      if raw_area_um2 is None else raw_area_um2),
+        raw_area_um2=_raw_area_um2(raw) if raw_area_um2 is None else raw_area_um2,
     )
+
+
+def _raw_area_um2(raw: LayerPaths) -> NDArray[np.float64]:
+    """The net area of each layer of ``raw``, µm² (signed ring areas summed)."""
+    return raw.layer_area2().astype(np.float64) / 2
 
 
 def simplification_errors(

@@ -217,18 +217,17 @@ def _prepare(source: Any, scale: float) -> _Prepared:
     return _Prepared(mesh, "", time.perf_counter() - t)
 
 
-def _errors(raw: Any, cleaned: tuple[Any, Any], raw_area_um2: Any = None,
-            threads: int | None = None) -> Any:
-    """The contour errors of ``cleaned`` (``_clean_closed``'s rings) against ``raw``."""
-    from vecslice.metrics import _contour_errors
+def _error_cache(raw: Any, raw_area_um2: Any = None) -> Any:
+    """An :class:`~vecslice.errorcache.ErrorCache` of ``raw``'s closed loops.
+
+    Its ``errors(coords, offsets)`` measures ``_clean_closed``'s rings.
+    """
+    from vecslice.errorcache import ErrorCache
     from vecslice.paths import LayerPaths
 
-    coords, offsets = cleaned
-    return _contour_errors(
+    return ErrorCache(
         LayerPaths._trusted(raw.coords, raw.ring_offsets, raw.layer_offsets),
-        LayerPaths._trusted(coords, offsets, raw.layer_offsets.copy()),
-        raw_area_um2, threads,
-    )
+        raw_area_um2)
 
 
 def _model(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
@@ -263,7 +262,7 @@ def _variant(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
 
     cleaned = _clean_closed(raw, settings, kept)
     with ThreadPoolExecutor(1, thread_name_prefix="vecslice-metrics") as pool:
-        errors = pool.submit(_errors, raw, cleaned, raw_area_um2)
+        errors = pool.submit(_error_cache(raw, raw_area_um2).errors, *cleaned)
         model = _model(raw, stitched, schedule, settings, cleaned)
         return model, errors.result()
 
@@ -286,9 +285,7 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
     (:class:`vecslice.errorcache.ErrorCache`).
     """
     from vecslice._validate import check_layer_count
-    from vecslice.errorcache import ErrorCache
     from vecslice.layers import layer_heights
-    from vecslice.paths import LayerPaths
     from vecslice.pipeline import _clean_closed, _kept_loops
     from vecslice.slicing import _contours
     from vecslice.stitch import stitch
@@ -323,12 +320,9 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
                 for i, s in combos]
     kept: dict[int, Any] = {}  # perimeter filters, by minimum circumference
     kept_lock = threading.Lock()
-    raw_area = raw.layer_area2().astype(np.float64) / 2  # µm² per raw layer
     # a ring that comes out of simplification as in an earlier combination
     # takes that combination's errors (the same pair: the same numbers)
-    cache = ErrorCache(
-        LayerPaths._trusted(raw.coords, raw.ring_offsets, raw.layer_offsets),
-        raw_area)
+    cache = _error_cache(raw)
 
     def simplified(s: SliceSettings) -> tuple[Any, float]:
         t = time.perf_counter()
