@@ -105,12 +105,71 @@ BLOCK_BITS = 4
 BLOCK = 1 << BLOCK_BITS  # faces per block of the plan's block summaries
 
 
-_PLAN = types.Tuple((types.int32[::1], I64_1D_OUT, I64_1D_OUT, I64, I64,
-                     types.int32[:, ::1]))
+_I64_2D_W = types.int64[:, ::1]
+_I32_W = types.int32[::1]
+_I32_2D_W = types.int32[:, ::1]
 
 
-@kernel(_PLAN(I64_2D, _I32_1D, I64_1D, I64))
-def _segment_plan(faces, twin, vert_layer, n_planes):
+@kernel(types.void(I64_2D, _I32_1D, I64_1D, I64, I64, I64, _I32_W, _I64_W,
+                   _I64_W, _I32_2D_W, _I64_W))
+def _plan_range(faces, twin, vert_layer, f0, f1, n_planes, out_face_lo,
+                out_face_offsets, out_per_plane, out_blocks, out_counts):
+    """:func:`segment_plan` of faces ``f0:f1`` (``f0`` a multiple of ``BLOCK``).
+
+    Writes ``out_face_lo[f0:f1]``; ``out_face_offsets[f0 + 1:f1 + 1]`` counted from
+    0 at ``f0`` (the caller adds the segments of the faces before ``f0``); the
+    planes' difference counts (+1 at a face's low plane, -1 at its high one) to
+    ``out_per_plane`` (``n_planes + 1``, zeros, this range's own); the blocks of
+    these faces; ``out_counts`` = (segments, starts on an edge without a twin,
+    ends on one).
+    """
+    down_of = np.array(DOWN_EDGE, dtype=np.int64)
+    up_of = np.array(UP_EDGE, dtype=np.int64)
+    total = 0
+    n_in = 0
+    n_out = 0
+    b_lo = n_planes
+    b_hi = 0
+    for f in range(f0, f1):
+        if f & (BLOCK - 1) == 0:  # a block starts
+            b_lo = n_planes
+            b_hi = 0
+        l0 = vert_layer[faces[f, 0]]
+        l1 = vert_layer[faces[f, 1]]
+        l2 = vert_layer[faces[f, 2]]
+        lo = min(l0, min(l1, l2))
+        hi = max(l0, max(l1, l2))
+        out_face_lo[f] = lo
+        total += hi - lo
+        out_face_offsets[f + 1] = total
+        if hi > lo:
+            b_lo = min(b_lo, lo)
+            b_hi = max(b_hi, hi)
+        out_blocks[f >> BLOCK_BITS, 0] = b_lo  # (rewritten until the block ends)
+        out_blocks[f >> BLOCK_BITS, 1] = b_hi
+        if hi > lo:
+            out_per_plane[lo] += 1
+            out_per_plane[hi] -= 1
+            if twin[3 * f] < 0 or twin[3 * f + 1] < 0 or twin[3 * f + 2] < 0:
+                for k in range(lo, hi):
+                    code = _code(l0, l1, l2, k)
+                    if twin[3 * f + up_of[code]] < 0:
+                        n_in += 1
+                    if twin[3 * f + down_of[code]] < 0:
+                        n_out += 1
+    out_counts[0] = total
+    out_counts[1] = n_in
+    out_counts[2] = n_out
+
+
+@kernel(types.void(_I64_W, I64, I64, I64))
+def _shift(a, lo, hi, by):
+    """Add ``by`` to ``a[lo:hi]``."""
+    for i in range(lo, hi):
+        a[i] += by
+
+
+def segment_plan(faces, twin, vert_layer, n_planes, n_chunks=1, run=run_serial):
     """Where each face's segments go, segments per plane, open ends counted.
 
     Returns ``(face_lo, face_offsets, per_plane, n_in, n_out, blocks)``: face
@@ -120,48 +179,40 @@ def _segment_plan(faces, twin, vert_layer, n_planes):
     without a twin; the faces ``BLOCK * b`` up to ``BLOCK * (b + 1)`` cross
     planes ``blocks[b, 0]`` up to ``blocks[b, 1]`` only (empty when low >= high),
     so that a chunk of planes skips the blocks that cannot meet it.
+
+    The faces are planned in up to ``n_chunks`` ranges of whole blocks given to
+    ``run`` (``run(fn, bounds)`` calls ``fn(lo, hi)`` for every range, in any
+    order or at once); each range's offsets, counted from 0, are then moved up
+    by the segments of the ranges before it.
     """
     n_faces = faces.shape[0]
-    down_of = np.array(DOWN_EDGE, dtype=np.int64)
-    up_of = np.array(UP_EDGE, dtype=np.int64)
+    n_blocks = (n_faces + BLOCK - 1) // BLOCK
+    n_chunks = max(1, min(int(n_chunks), n_blocks))
+    bounds = np.minimum(
+        BLOCK * ((n_blocks * np.arange(n_chunks + 1, dtype=np.int64)) // n_chunks),
+        n_faces)
     face_lo = np.empty(n_faces, dtype=np.int32)
     face_offsets = np.empty(n_faces + 1, dtype=np.int64)
-    per_plane = np.zeros(n_planes + 1, dtype=np.int64)
-    blocks = np.empty(((n_faces + BLOCK - 1) // BLOCK, 2), dtype=np.int32)
     face_offsets[0] = 0
-    n_in = 0
-    n_out = 0
-    b_lo = n_planes
-    b_hi = 0
-    for f in range(n_faces):
-        if f & (BLOCK - 1) == 0:  # a block starts
-            b_lo = n_planes
-            b_hi = 0
-        l0 = vert_layer[faces[f, 0]]
-        l1 = vert_layer[faces[f, 1]]
-        l2 = vert_layer[faces[f, 2]]
-        lo = min(l0, min(l1, l2))
-        hi = max(l0, max(l1, l2))
-        face_lo[f] = lo
-        face_offsets[f + 1] = face_offsets[f] + hi - lo
-        if hi > lo:
-            b_lo = min(b_lo, lo)
-            b_hi = max(b_hi, hi)
-        blocks[f >> BLOCK_BITS, 0] = b_lo  # (rewritten until the block ends)
-        blocks[f >> BLOCK_BITS, 1] = b_hi
-        if hi > lo:
-            per_plane[lo] += 1
-            per_plane[hi] -= 1
-            if twin[3 * f] < 0 or twin[3 * f + 1] < 0 or twin[3 * f + 2] < 0:
-                for k in range(lo, hi):
-                    code = _code(l0, l1, l2, k)
-                    if twin[3 * f + up_of[code]] < 0:
-                        n_in += 1
-                    if twin[3 * f + down_of[code]] < 0:
-                        n_out += 1
-    for k in range(n_planes):
-        per_plane[k + 1] += per_plane[k]
-    return face_lo, face_offsets, per_plane[:n_planes].copy(), n_in, n_out, blocks
+    blocks = np.empty((n_blocks, 2), dtype=np.int32)
+    per_plane = np.zeros((n_chunks, n_planes + 1), dtype=np.int64)
+    counts = np.zeros((n_chunks, 3), dtype=np.int64)
+    chunk_of = {int(bounds[c]): c for c in range(n_chunks)}
+
+    def plan(f0, f1):
+        c = chunk_of[f0]
+        _plan_range(faces, twin, vert_layer, f0, f1, n_planes, face_lo,
+                    face_offsets, per_plane[c], blocks, counts[c])
+
+    run(plan, bounds)
+    if n_chunks > 1:
+        before = np.cumsum(counts[:, 0]) - counts[:, 0]
+        base_of = {int(bounds[c]): int(before[c]) for c in range(n_chunks)}
+        run(lambda f0, f1: _shift(face_offsets, f0 + 1, f1 + 1, base_of[f0]),
+            bounds)
+    planes = np.cumsum(per_plane.sum(axis=0)[:n_planes])
+    return (face_lo, face_offsets, planes, int(counts[:, 1].sum()),
+            int(counts[:, 2].sum()), blocks)
 
 
 _ENDS = types.Tuple((I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT,
@@ -174,7 +225,7 @@ def _open_ends(faces, twin, vert_layer, face_lo, face_offsets, n_in, n_out):
 
     Returns ``(in_seg, in_key, in_k, out_face, out_key, out_k)``: the ``n_in``
     segments that start, and the ``n_out`` that end, on an edge without a twin
-    (counted by :func:`_segment_plan`); a start by its segment, an end by its
+    (counted by :func:`segment_plan`); a start by its segment, an end by its
     face.
     """
     n_faces = faces.shape[0]
@@ -455,8 +506,8 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
     ``out_layer`` a permutation of ``range(len(z))``; |coordinates| < 2**30.
     """
     n_planes = z.shape[0]
-    face_lo, face_offsets, per_plane, n_in, n_out, blocks = _segment_plan(
-        faces, twin, vert_layer, n_planes)
+    face_lo, face_offsets, per_plane, n_in, n_out, blocks = segment_plan(
+        faces, twin, vert_layer, n_planes, n_chunks, run)
     n_seg = int(face_offsets[-1])
     visited = np.zeros(n_seg, dtype=np.uint8)
     if n_in + n_out == 0:  # a closed mesh: the open-end kernels are not compiled
@@ -511,22 +562,31 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
             open_rings)
 
 
-@kernel(types.void(I64_2D, I64_1D, I64, I64, _I64_W))
-def _vertex_layers_range(vertices, z, v0, v1, out):
+@kernel(types.void(I64_2D, I64_1D, I64, I64, I64, I64, _I64_W))
+def _vertex_layers_range(vertices, z, even, dz, v0, v1, out):
     """:func:`vertex_layers` of vertices ``v0:v1``, written to ``out``.
 
-    A binary search without branches on the data (the halving steps depend only
+    Planes ``even`` and up are evenly spaced, ``dz > 0`` apart (``even == len(z)``:
+    none are). Above plane ``even`` the count is a division: the planes
+    ``even + j`` with ``z[even] + j * dz < vz`` number ``ceil((vz - z[even]) / dz)``
+    (at most ``len(z) - even``), and every plane before ``even`` is lower still.
+    Elsewhere the count is that of the planes before ``even`` (or of all planes):
+    a binary search without branches on the data (the halving steps depend only
     on the number of planes; which half is kept is a select), so that the
     unpredictable comparisons cost no mispredicted jumps.
     """
     n_planes = z.shape[0]
+    z_even = z[even] if even < n_planes else 0
     for v in range(v0, v1):
         vz = vertices[v, 2]
-        if n_planes == 0:
+        if even < n_planes and vz > z_even:
+            out[v] = even + min((vz - z_even + dz - 1) // dz, n_planes - even)
+            continue
+        n = even  # z[even] >= vz: no plane from ``even`` on is below vz
+        if n == 0:
             out[v] = 0
             continue
         base = 0
-        n = n_planes
         while n > 1:  # the answer lies in base .. base + n
             half = n >> 1
             base = base + half if z[base + half - 1] < vz else base
@@ -537,16 +597,36 @@ def _vertex_layers_range(vertices, z, v0, v1, out):
 _VERTEX_CHUNK = 1 << 16  # vertices per chunk of vertex_layers
 
 
+def _even_suffix(z):
+    """The evenly spaced planes at the end of ``z``, as ``(even, dz)``.
+
+    Planes ``even`` and up are ``dz > 0`` apart, ``even`` as small as that allows;
+    ``(len(z), 0)`` when fewer than two planes, or the last two equal.
+    """
+    n = z.shape[0]
+    if n < 2:
+        return n, 0
+    dz = int(z[-1] - z[-2])
+    if dz <= 0:
+        return n, 0
+    uneven = np.flatnonzero(np.diff(z) != dz)
+    return (int(uneven[-1]) + 1 if uneven.shape[0] else 0), dz
+
+
 def vertex_layers(vertices, z, run=run_serial):
     """Number of planes strictly below each vertex: ``searchsorted(z, vz, "left")``.
 
     A vertex is above plane ``k`` iff ``k < vert_layer[v]`` (on the plane counts as
-    below). Binary search per vertex, chunks of vertices given to ``run``
+    below). Where the planes end evenly spaced (a layer schedule: a first layer,
+    then one height) a vertex above the first of those is counted by a division,
+    elsewhere by a binary search; chunks of vertices are given to ``run``
     (``run(fn, bounds)`` calls ``fn(lo, hi)`` for every chunk, in any order or at
     once; by default one after another). Precondition: ``z`` sorted.
     """
     n = vertices.shape[0]
     out = np.empty(n, dtype=np.int64)
+    even, dz = _even_suffix(z)
     bounds = np.append(np.arange(0, n, _VERTEX_CHUNK), n)
-    run(lambda v0, v1: _vertex_layers_range(vertices, z, v0, v1, out), bounds)
+    run(lambda v0, v1: _vertex_layers_range(vertices, z, even, dz, v0, v1, out),
+        bounds)
     return out

@@ -102,6 +102,35 @@ def test_vertex_layers_is_searchsorted_left(vz, planes):
     assert vertex_layers(v, z).tolist() == expect.tolist()
 
 
+@given(st.lists(st.integers(-(2**29), 2**29), min_size=0, max_size=6),
+       st.integers(-(2**29), 2**29), st.integers(1, 2**20), st.integers(0, 40),
+       st.lists(st.integers(-(2**30) + 1, 2**30 - 1), min_size=1, max_size=40),
+       st.integers(0, 3))
+def test_vertex_layers_of_evenly_spaced_planes_is_searchsorted_left(
+        first, start, dz, n_even, vz, pick):
+    # a schedule: a few planes of their own (as a first layer), then planes
+    # evenly spaced, which vertex_layers counts by a division
+    even = start + dz * np.arange(n_even, dtype=np.int64)
+    z = np.sort(np.concatenate([np.array(first, dtype=np.int64), even]))
+    v = np.zeros((len(vz), 3), dtype=np.int64)
+    v[:, 2] = vz
+    if len(z):  # vertices on, just above and just below planes too
+        k = np.arange(len(vz)) % len(z)
+        v[::2, 2] = np.clip(z[k[::2]] + (pick - 1), -(2**30) + 1, 2**30 - 1)
+    expect = np.searchsorted(z, v[:, 2], side="left")
+    assert vertex_layers(v, z).tolist() == expect.tolist()
+
+
+@pytest.mark.parametrize(("z", "expect"), [
+    ([], (0, 0)), ([7], (1, 0)), ([3, 5], (0, 2)), ([0, 200, 300, 400], (1, 100)),
+    ([5, 5, 7, 9], (1, 2)), ([1, 2, 4, 4], (4, 0)), ([0, 10, 20, 25], (2, 5)),
+])
+def test_even_suffix_finds_the_evenly_spaced_planes(z, expect):
+    from vecslice._kernels.contours import _even_suffix
+
+    assert _even_suffix(np.array(z, dtype=np.int64)) == expect
+
+
 @pytest.mark.parametrize("n_planes", [0, 1, 2, 3, 478, 1000])
 def test_vertex_layers_in_chunks_on_threads(n_planes):
     rng = np.random.default_rng(n_planes)
@@ -118,14 +147,14 @@ def test_plan_blocks_bound_the_planes_of_their_faces():
     # cover the planes of every face in it that crosses any
     import trimesh
 
-    from vecslice._kernels.contours import BLOCK, _segment_plan
+    from vecslice._kernels.contours import BLOCK, segment_plan
 
     m = trimesh.creation.icosphere(4, radius=10_000)
     v = np.rint(m.vertices).astype(np.int64)
     f = m.faces.astype(np.int64)
     z = np.arange(-9_000, 9_001, 700, dtype=np.int64)
     vl = np.searchsorted(z, v[:, 2], side="left").astype(np.int64)
-    face_lo, face_offsets, _, _, _, blocks = _segment_plan(
+    face_lo, face_offsets, _, _, _, blocks = segment_plan(
         f, half_edge_twins(f, len(v)), vl, len(z))
     n = np.diff(face_offsets)
     assert len(blocks) == -(-len(f) // BLOCK)
@@ -144,3 +173,23 @@ def test_plan_blocks_bound_the_planes_of_their_faces():
                           run=run_chunks)
     assert all(np.array_equal(a, b) for a, b in zip(one, many))
     assert all(np.array_equal(a, b) for a, b in zip(one, chained(v, f, z, out)))
+
+
+@given(closed_meshes(), st.integers(0, 2**32 - 1), st.booleans(),
+       st.integers(2, 40), st.sampled_from(["reversed", "threads"]))
+def test_segment_plan_in_ranges_of_faces_equals_one_range(case, seed, broken,
+                                                         n_chunks, run):
+    # each range counts its offsets from 0, then moves them up by the ranges
+    # before it; planes, blocks and open-end counts add up to the one-range plan
+    from vecslice._kernels.contours import segment_plan
+
+    v, f, planes = case
+    if broken:
+        f = break_mesh(f, np.random.default_rng(seed))
+    z = np.sort(np.asarray(planes, dtype=np.int64))
+    vl = np.searchsorted(z, v[:, 2], side="left").astype(np.int64)
+    twin = half_edge_twins(f, len(v))
+    one = segment_plan(f, twin, vl, len(z))
+    many = segment_plan(f, twin, vl, len(z), n_chunks, run=RUNNERS[run])
+    assert [np.asarray(a).tolist() for a in one] == [
+        np.asarray(b).tolist() for b in many]
