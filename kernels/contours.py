@@ -597,6 +597,7 @@ def _vertex_layers_range(vertices, z, even, dz, v0, v1, out):
 _VERTEX_CHUNK = 1 << 16  # vertices per chunk of vertex_layers
 
 
+@kernel(types.UniTuple(I64, 2)(I64_1D))
 def _even_suffix(z):
     """The evenly spaced planes at the end of ``z``, as ``(even, dz)``.
 
@@ -604,13 +605,13 @@ def _even_suffix(z):
     ``(len(z), 0)`` when fewer than two planes, or the last two equal.
     """
     n = z.shape[0]
-    if n < 2:
+    if n < 2 or z[n - 1] <= z[n - 2]:
         return n, 0
-    dz = int(z[-1] - z[-2])
-    if dz <= 0:
-        return n, 0
-    uneven = np.flatnonzero(np.diff(z) != dz)
-    return (int(uneven[-1]) + 1 if uneven.shape[0] else 0), dz
+    dz = z[n - 1] - z[n - 2]
+    even = n - 2
+    while even > 0 and z[even] - z[even - 1] == dz:
+        even -= 1
+    return even, dz
 
 
 def vertex_layers(vertices, z, run=run_serial):

@@ -50,7 +50,8 @@ DEMO_KERNELS = {
     "vertices": {"_partition_vertices", "_match_partitions", "_number_groups",
                  "_mark_used", "_kept_vertices", "_write_faces"},
     "topology": {"_pack_half_edges", "_match_buckets"},
-    "contours": {"_vertex_layers_range", "_plan_range", "_trace_closed"},
+    "contours": {"_vertex_layers_range", "_even_suffix", "_plan_range",
+                 "_trace_closed"},
     "rings": {"take_rings", "ring_area2"},
 }
 DEMO_CALLEES = {
