@@ -169,6 +169,9 @@ def _shift(a, lo, hi, by):
         a[i] += by
 
 
+_PLAN_SCRATCH = 1 << 22  # plane counts of all ranges of segment_plan (32 MiB)
+
+
 def segment_plan(faces, twin, vert_layer, n_planes, n_chunks=1, run=run_serial):
     """Where each face's segments go, segments per plane, open ends counted.
 
@@ -183,11 +186,14 @@ def segment_plan(faces, twin, vert_layer, n_planes, n_chunks=1, run=run_serial):
     The faces are planned in up to ``n_chunks`` ranges of whole blocks given to
     ``run`` (``run(fn, bounds)`` calls ``fn(lo, hi)`` for every range, in any
     order or at once); each range's offsets, counted from 0, are then moved up
-    by the segments of the ranges before it.
+    by the segments of the ranges before it. Each range counts its planes'
+    segments in its own row, so there are fewer ranges where the planes are
+    very many (at most ``_PLAN_SCRATCH`` counts in all).
     """
     n_faces = faces.shape[0]
     n_blocks = (n_faces + BLOCK - 1) // BLOCK
-    n_chunks = max(1, min(int(n_chunks), n_blocks))
+    # each range counts its own planes: at most _PLAN_SCRATCH counts in all
+    n_chunks = max(1, min(int(n_chunks), n_blocks, _PLAN_SCRATCH // (n_planes + 1)))
     bounds = np.minimum(
         BLOCK * ((n_blocks * np.arange(n_chunks + 1, dtype=np.int64)) // n_chunks),
         n_faces)

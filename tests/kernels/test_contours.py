@@ -193,3 +193,29 @@ def test_segment_plan_in_ranges_of_faces_equals_one_range(case, seed, broken,
     many = segment_plan(f, twin, vl, len(z), n_chunks, run=RUNNERS[run])
     assert [np.asarray(a).tolist() for a in one] == [
         np.asarray(b).tolist() for b in many]
+
+
+def test_segment_plan_takes_fewer_ranges_where_planes_are_many(monkeypatch):
+    # each range keeps a row of plane counts: their total is capped
+    import trimesh
+
+    from vecslice._kernels import contours
+
+    m = trimesh.creation.icosphere(4, radius=10_000)
+    v = np.rint(m.vertices).astype(np.int64)
+    f = m.faces.astype(np.int64)
+    z = np.arange(-9_000, 9_001, 700, dtype=np.int64)
+    vl = np.searchsorted(z, v[:, 2], side="left").astype(np.int64)
+    twin = half_edge_twins(f, len(v))
+    seen = []
+
+    def spy(fn, bounds):
+        seen.append(len(bounds) - 1)
+        run_serial(fn, bounds)
+
+    one = contours.segment_plan(f, twin, vl, len(z))
+    monkeypatch.setattr(contours, "_PLAN_SCRATCH", 3 * (len(z) + 1))
+    capped = contours.segment_plan(f, twin, vl, len(z), 16, run=spy)
+    assert seen and max(seen) == 3
+    assert [np.asarray(a).tolist() for a in one] == [
+        np.asarray(b).tolist() for b in capped]
