@@ -105,8 +105,6 @@ BLOCK_BITS = 4
 BLOCK = 1 << BLOCK_BITS  # faces per block of the plan's block summaries
 
 
-_I64_2D_W = types.int64[:, ::1]
-_I32_W = types.int32[::1]
 _I32_2D_W = types.int32[:, ::1]
 
 
