@@ -139,22 +139,31 @@ def check_output(path: Path | None, suffixes: tuple[str, ...] = (),
 
 
 _LOADING = ("source", "faces_in", "vertices_in")
+# label of each count: (one, several)
 _CLEANUP = {
-    "vertices_merged": "vertices merged (same position)",
-    "vertices_unused": "unused vertices dropped",
-    "faces_degenerate": "degenerate faces dropped",
+    "vertices_merged": ("vertex merged (same position)",
+                        "vertices merged (same position)"),
+    "vertices_unused": ("unused vertex dropped", "unused vertices dropped"),
+    "faces_degenerate": ("degenerate face dropped", "degenerate faces dropped"),
 }
+# CuraEngine's loading melds vertices within 30 µm, not only equal ones
+_MELDED = ("vertex melded (within 30 µm, as CuraEngine)",
+           "vertices melded (within 30 µm, as CuraEngine)")
 _REPAIR = {
-    "faces_duplicate": "duplicate faces removed",
-    "faces_flipped": "faces flipped",
+    "faces_duplicate": ("duplicate face removed", "duplicate faces removed"),
+    "faces_flipped": ("face flipped", "faces flipped"),
+    "shells_reversed": ("shell reversed", "shells reversed"),
+    "cavities_kept": ("cavity kept", "cavities kept"),
 }
 
 
-def load_info_lines(info: Any) -> list[str]:
+def load_info_lines(info: Any, *, melded: bool = False) -> list[str]:
     """``cleaned: ...`` and ``repaired: ...`` lines for the non-zero counts.
 
     Every integer field of :class:`vecslice.meshcheck.LoadInfo` is reported: the
-    known ones with a label, any other (a newer repair step) by its name.
+    known ones with a label (singular for a count of one), any other (a newer
+    repair step) by its name. ``melded``: the mesh was read with
+    ``compat="cura"``, whose merged vertices are those within 30 µm.
     """
     if info is None:
         return []
@@ -164,8 +173,10 @@ def load_info_lines(info: Any) -> list[str]:
         if f.name in _LOADING or isinstance(value, bool) or not isinstance(value, int):
             continue
         if value:
-            label = (_CLEANUP.get(f.name) or _REPAIR.get(f.name)
-                     or f.name.replace("_", " "))
+            forms = (_MELDED if melded and f.name == "vertices_merged"
+                     else _CLEANUP.get(f.name) or _REPAIR.get(f.name))
+            label = (forms[0] if value == 1 else forms[1]) if forms else \
+                f.name.replace("_", " ")
             (cleaned if f.name in _CLEANUP else repaired).append(f"{value:,} {label}")
     lines = []
     if cleaned:

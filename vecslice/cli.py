@@ -268,6 +268,7 @@ def _load(path: Path | None, args: argparse.Namespace, settings: Any) -> Any:
     """The mesh (or the demo model), with the load report printed."""
     import numpy as np
 
+    compat: dict[str, str] = {}
     if path is None:
         if args.scale is not None:
             raise CliInputError("--scale only applies to a model file; got "
@@ -281,8 +282,8 @@ def _load(path: Path | None, args: argparse.Namespace, settings: Any) -> Any:
 
         scale = 1.0 if args.scale is None else args.scale
         # compat="cura" reads the file as CuraEngine does (the default: omitted)
-        compat = {"compat": settings.compat} \
-            if getattr(settings, "compat", "vecslice") != "vecslice" else {}
+        if getattr(settings, "compat", "vecslice") != "vecslice":
+            compat = {"compat": settings.compat}
         mesh = _work(load_mesh, path, scale=scale, repair=not args.no_repair,
                      **compat)
     from vecslice.mesh import check_mesh
@@ -297,7 +298,7 @@ def _load(path: Path | None, args: argparse.Namespace, settings: Any) -> Any:
     print(f"model     {name}: {_n(report.n_faces, 'face')}, "
           f"{_n(report.n_bodies, 'body', 'bodies')}, "
           f"{size[0]:.3f} x {size[1]:.3f} x {size[2]:.3f} mm, {state}")
-    for line in load_info_lines(mesh.load_info):
+    for line in load_info_lines(mesh.load_info, melded=bool(compat)):
         print(line)
     if path is not None and np.all(np.isfinite(size)):
         hint = size_hint(size, args.scale is not None)

@@ -34,7 +34,8 @@ class LoadInfo:
     faces_in, vertices_in : int
         Face and vertex records as read (3MF: after applying build items).
     vertices_merged : int
-        Vertex records removed because an earlier vertex has the same µm position.
+        Vertex records removed because an earlier vertex has the same µm position
+        (``load_mesh(..., compat="cura")``: lies within CuraEngine's 30 µm melding).
     vertices_unused : int
         Vertices removed because no kept face uses them.
     faces_degenerate : int

@@ -98,6 +98,11 @@ def test_compat_cura_reads_and_slices_as_cura_does(tmp_path):
     assert np.array_equal(got.ring_offsets, want.ring_offsets)
     half = vs.slice_mesh(vs.load_mesh(path), vs.SliceSettings(compat="cura"))
     assert got.coords.shape != half.coords.shape  # the reading matters here
+    # the STL's corners are melded within 30 µm: said so, not "same position"
+    merged = vs.load_mesh(path, compat="cura").load_info.vertices_merged
+    assert merged > 0
+    assert f"cleaned   {merged:,} vertices melded (within 30 µm" in p.stdout
+    assert "same position" not in p.stdout
 
 
 def test_adaptive_layers_in_mm(tmp_path):

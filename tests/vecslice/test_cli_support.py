@@ -57,13 +57,23 @@ def test_load_info_lines_report_every_nonzero_count():
         "repaired  2 duplicate faces removed, 1,622 faces flipped",
     ]
 
+    assert load_info_lines(LoadInfo("x.stl", 1, 3, vertices_merged=1, faces_flipped=1,
+                                    faces_degenerate=2)) == [
+        "cleaned   1 vertex merged (same position), 2 degenerate faces dropped",
+        "repaired  1 face flipped",
+    ]
+    shells = LoadInfo("x.stl", 1, 3, shells_reversed=2, cavities_kept=1)
+    assert load_info_lines(shells) == ["repaired  2 shells reversed, 1 cavity kept"]
+    # compat="cura" melds vertices within 30 µm: not "same position"
+    assert load_info_lines(info, melded=True)[0] == (
+        "cleaned   5,363 vertices melded (within 30 µm, as CuraEngine)")
+
     @dataclass(frozen=True)
     class Newer(LoadInfo):  # a later repair step adds counts: reported by name
-        shells_reversed: int = 0
-        cavities_kept: int = 0
+        holes_filled: int = 0
 
-    newer = Newer("x.stl", 1, 3, shells_reversed=2, cavities_kept=1)
-    assert load_info_lines(newer) == ["repaired  2 shells reversed, 1 cavities kept"]
+    newer = Newer("x.stl", 1, 3, holes_filled=3, cavities_kept=2)
+    assert load_info_lines(newer) == ["repaired  2 cavities kept, 3 holes filled"]
 
 
 def test_size_hints():
