@@ -342,8 +342,11 @@ def make_parts(
     >>> hole = [[10, 10], [10, 20], [20, 20], [20, 10]]
     >>> loops = LayerPaths(outer + hole, [0, 4, 8], [0, 2])
     >>> parts = make_parts(loops)
-    >>> parts.n_parts, ring_area2(parts.coords, parts.ring_offsets).tolist()
-    (1, [1800, -200])
+    >>> parts.n_parts, parts.layer_areas().tolist()
+    (1, [800.0])
+    >>> outline, holes = parts.layer(0)[0]
+    >>> outline.tolist(), [h.tolist() for h in holes]
+    ([[0, 0], [30, 0], [30, 30], [0, 30]], [[[10, 10], [10, 20], [20, 20], [20, 10]]])
     """
     import manifold3d
 
