@@ -361,12 +361,20 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
     pools["vecslice"] = max(pools["vecslice"], numba.get_num_threads() - 1)
     started = ", ".join(f"{k} {v}" for k, v in pools.items())
     loops = vecslice_contours(v_um, f, z)
+    what = ("one 3DBenchy" if args.copies == 1
+            else f"{args.copies} × 3DBenchy side by side")
+    how = [f"{args.repeat} interleaved repeat{'' if args.repeat == 1 else 's'}; "
+           "times are medians, ratios the "
+           "median over repeats with their range"]
+    if not args.no_trimesh:  # the slow trimesh case runs in the first repeats only
+        how.append(f"the trimesh row {min(args.repeat, args.trimesh_repeat)} of them")
+    if size_arrays:
+        how.append(f"in the scaling row a repeat is the median of {SCALING_ROUNDS} "
+                   "interleaved rounds of the sizes")
     notes = [
         f"Measured {datetime.date.today().isoformat()} with `python benchmarks/"
-        f"report.py` ({args.repeat} interleaved repeats; times are medians, "
-        "ratios the median over repeats with their range; in the scaling row a "
-        f"repeat is the median of {SCALING_ROUNDS} interleaved rounds of the sizes).",
-        f"Workload: {args.copies} × 3DBenchy side by side, {n_faces:,} faces, "
+        f"report.py{' --quick' if args.quick else ''}` ({'; '.join(how)}).",
+        f"Workload: {what}, {n_faces:,} faces, "
         f"{len(z)} layers at 0.1 mm, {loops.coords.shape[0] / 1e6:.2f} M crossings.",
         f"Machine: {platform.machine()}, {os.cpu_count()} cores "
         f"({len(os.sched_getaffinity(0))} usable), load average {load_start} at the "
@@ -401,7 +409,8 @@ def main() -> None:
                     help="repeats of the (slow) trimesh case")
     ap.add_argument("--no-trimesh", action="store_true")
     ap.add_argument("--quick", action="store_true",
-                    help="smoke run: one copy, one repeat, no trimesh, no scaling")
+                    help="smoke run: one copy, one repeat, no trimesh, no scaling, no "
+                         "peak memory")
     args = ap.parse_args()
     if args.quick:
         args.copies, args.repeat, args.no_trimesh = 1, 1, True
