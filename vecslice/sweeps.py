@@ -14,7 +14,7 @@ import os
 import sys
 import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from difflib import get_close_matches
@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from vecslice._validate import check_bool
 from vecslice.errors import (
     InputTypeError,
     InputValueError,
@@ -78,6 +79,11 @@ def _sources(meshes: Any) -> list[tuple[str, Any]]:
     def name_of(i: int, m: Any) -> str:
         return Path(m).name if isinstance(m, (str, os.PathLike)) else f"mesh{i}"
 
+    if isinstance(meshes, bytes):
+        raise InputTypeError(
+            f"`meshes` must be a path (str or os.PathLike), a vecslice.Mesh, a list "
+            f"of them or a dict name -> either; got bytes {meshes!r} (decode it)"
+        )
     if isinstance(meshes, (str, os.PathLike, Mesh)):
         meshes = [meshes]
     if isinstance(meshes, Mapping):
@@ -120,11 +126,7 @@ def _combinations(grid: Any) -> list[SliceSettings]:
         axes = []
         for key, values in grid.items():
             _check_name(key, names)
-            if isinstance(values, (str, bytes)) or not isinstance(
-                values, (Sequence, np.ndarray, range)
-            ):
-                values = [values]
-            values = list(values)
+            values = _values(key, values)
             if not values:
                 raise SettingsError(f"`grid[{key!r}]` must list at least one value; "
                                     "got an empty list")
@@ -154,8 +156,27 @@ def _combinations(grid: Any) -> list[SliceSettings]:
         try:
             out.append(SliceSettings(**{k: _plain(v) for k, v in c.items()}))
         except VecsliceError as exc:
-            raise SettingsError(f"`grid` combination {c!r} is invalid: {exc}") from None
+            cls = GridTypeError if isinstance(exc, TypeError) else SettingsError
+            raise cls(f"`grid` combination {c!r} is invalid: {exc}") from None
     return out
+
+
+class GridTypeError(SettingsError, InputTypeError):
+    """A grid value of the wrong type: a SettingsError, and a TypeError."""
+
+
+def _values(key: str, values: Any) -> list[Any]:
+    """The values of one grid axis: a list, array, range, Series... or one value."""
+    if isinstance(values, np.ndarray) and values.ndim == 0:
+        return [values.item()]
+    if isinstance(values, (set, frozenset)):
+        raise SettingsError(
+            f"`grid[{key!r}]` must be a list of values (a set has no order, so the "
+            f"rows would not either); got {values!r}"
+        )
+    if isinstance(values, (str, bytes, Mapping)) or not isinstance(values, Iterable):
+        return [values]
+    return list(values)
 
 
 def _check_name(key: object, names: tuple[str, ...]) -> None:
@@ -174,16 +195,31 @@ def _plain(v: Any) -> Any:
 
 
 def _scales(scale: Any, items: list[tuple[str, Any]]) -> dict[str, float]:
+    """The scale of every mesh; only meshes given as paths are scaled."""
     from vecslice.mesh import _check_scale
 
+    paths = {n for n, m in items if isinstance(m, (str, os.PathLike))}
     if isinstance(scale, Mapping):
         unknown = sorted(set(scale) - {n for n, _ in items})
         if unknown:
             raise InputValueError(
                 f"`scale` must name meshes of the sweep; got unknown {unknown[0]!r}"
             )
-        return {n: _check_scale(scale.get(n, 1.0)) for n, _ in items}
+        out = {n: _check_scale(scale.get(n, 1.0)) for n, _ in items}
+        given = sorted(n for n in scale if n not in paths and out[n] != 1.0)
+        if given:
+            raise InputValueError(
+                f"`scale` applies to meshes given as paths; {given[0]!r} is a "
+                f"vecslice.Mesh (scale {scale[given[0]]!r}): load it with that "
+                "scale instead"
+            )
+        return out
     s = _check_scale(scale)
+    if s != 1.0 and not paths:
+        raise InputValueError(
+            f"`scale` applies to meshes given as paths; got {scale!r} and only "
+            "vecslice.Mesh objects: load them with that scale instead"
+        )
     return {n: s for n, _ in items}
 
 
@@ -203,14 +239,21 @@ def _describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
-def _prepare(source: Any, scale: float) -> _Prepared:
-    """Load ``source`` (path or Mesh) and build its topology, once per mesh."""
+def _prepare(source: Any, scale: float, compat: str = "vecslice") -> _Prepared:
+    """Load ``source`` (path or Mesh) and build its topology, once per mesh.
+
+    A path is read as ``compat`` says (``"cura"``: as CuraEngine reads it); a
+    Mesh is taken as it is.
+    """
     from vecslice.mesh import load_mesh
 
     t = time.perf_counter()
     try:
-        mesh = source if not isinstance(source, (str, os.PathLike)) else load_mesh(
-            source, scale=scale)
+        if isinstance(source, (str, os.PathLike)):
+            kw = {"compat": compat} if compat != "vecslice" else {}
+            mesh = load_mesh(source, scale=scale, **kw)
+        else:
+            mesh = source
         mesh._half_edge_twins()  # built once here, cached on the mesh
     except Exception as exc:  # a bad mesh gives error rows, the sweep goes on
         return _Prepared(None, _describe(exc), time.perf_counter() - t)
@@ -541,13 +584,17 @@ def sweep(
     Parameters
     ----------
     meshes : path, Mesh, list of them, or dict name -> path or Mesh
-        The models. Paths are loaded on the workers (:func:`vecslice.load_mesh`);
-        a list names each mesh by its file name (``mesh<i>`` for Mesh objects).
+        The models. Paths are loaded on the workers (:func:`vecslice.load_mesh`;
+        for combinations with ``compat="cura"``, ``load_mesh(path,
+        compat="cura")``, CuraEngine's reading); a Mesh is used as it is (load it
+        with ``compat="cura"`` yourself for CuraEngine's reading). A list names
+        each mesh by its file name (``mesh<i>`` for Mesh objects).
     grid : dict or list of dict
-        ``{setting: [values, ...]}`` sweeps the full product of the lists (a bare
-        value counts as a list of one); a list of dicts gives the combinations
-        explicitly. Keys are :class:`vecslice.SliceSettings` fields (µm); unset
-        fields keep their defaults.
+        ``{setting: [values, ...]}`` sweeps the full product of the values (a
+        list, tuple, range, numpy array or pandas Series; a bare value counts as
+        a list of one); a list of dicts gives the combinations explicitly. Keys
+        are :class:`vecslice.SliceSettings` fields (µm); unset fields keep their
+        defaults.
     speed_mm_s : float, default 60
         Contour speed for the move metrics, mm/s.
     controller_ms : float, default 1.0
@@ -560,6 +607,7 @@ def sweep(
         with a client.
     scale : float or dict name -> float, default 1.0
         File units to millimetres for meshes given as paths (25.4 for inches).
+        A scale other than 1 for a Mesh object is refused: scale it when loading.
 
     Returns
     -------
@@ -579,12 +627,23 @@ def sweep(
         contours). With a client the table is the same apart from times.
         With ``compat="cura"`` the model comes from CuraEngine's own stages
         (:func:`vecslice.slice_mesh`) and the contour-error columns are NaN.
+        Metrics that have nothing to measure are NaN in rows without an error
+        too: a model with no layers or no rings left (all below
+        ``minimum_polygon_circumference``; often a wrong ``scale``) has no
+        deviation, no relative errors and no moves. Whole-number columns
+        (:data:`METRIC_COLUMNS` counts such as ``layers`` and ``vertices``) are
+        int64, or float64 when some row of the table has no value for them (an
+        error row, a ``compat="cura"`` row).
 
     Raises
     ------
     SettingsError
         An unknown setting, a bad value, an empty grid, or a bad speed or
-        controller time — before any work starts.
+        controller time — before any work starts. A grid value of the wrong type
+        (``"500"`` for a length) raises a SettingsError that is also a TypeError.
+    InputValueError, InputTypeError
+        A bad ``meshes``, ``scale``, ``progress`` or ``client``, or a speed or
+        controller time that is not a number (also before any work).
     ImportError
         If pandas or dask is missing (``pip install 'vecslice[sweep]'``).
 
@@ -616,15 +675,18 @@ def sweep(
     speed = _check_number(speed_mm_s, "speed_mm_s", "mm/s", zero=False)
     ctrl = _check_number(controller_ms, "controller_ms", "ms", zero=True)
     scales = _scales(scale, items)
-    if not isinstance(progress, bool):
-        raise InputTypeError(f"`progress` must be a bool; got {progress!r}")
+    progress = bool(check_bool(progress, "progress"))
     groups = _schedule_groups(combos)
     tasks = []
     for mi, (name, source) in enumerate(items):
-        prep = dask.delayed(_prepare, pure=False)(source, scales[name])
+        preps: dict[str, Any] = {}  # a path is read once per way of reading it
         for group in groups:
+            compat = getattr(group[0][1], "compat", "vecslice")
+            if compat not in preps:
+                preps[compat] = dask.delayed(_prepare, pure=False)(
+                    source, scales[name], compat)
             tasks.append((mi, name, group, dask.delayed(_rows, pure=False)(
-                prep, mi, name, group, speed, ctrl)))
+                preps[compat], mi, name, group, speed, ctrl)))
     if client is None:
         results = _run_local(dask, [t[3] for t in tasks], progress)
     else:

@@ -139,6 +139,60 @@ def test_bad_arguments(box):
         vs.sweep({"a": box}, {"max_deviation": 5}, scale={"b": 2.0})
 
 
+def test_grid_values_of_any_ordered_kind(box):
+    import pandas as pd
+
+    want = vs.sweep(box, {"max_resolution": [500]})
+    for value in (np.array(500), np.int32(500), (500,), pd.Series([500]),
+                  range(500, 501)):
+        got = vs.sweep(box, {"max_resolution": value})
+        _same_table(got, want)
+    with pytest.raises(vs.SettingsError, match=r"a set has no order.*\{200, 500\}"):
+        vs.sweep(box, {"max_resolution": {200, 500}})
+    # a value of the wrong type: a SettingsError, and a TypeError like SliceSettings'
+    with pytest.raises(vs.SettingsError, match="integer number of µm; got str '500'"
+                       ) as info:
+        vs.sweep(box, {"max_resolution": ["500"]})
+    assert isinstance(info.value, TypeError)
+    with pytest.raises(TypeError, match="True or False; got int 1"):
+        vs.sweep(box, [{"union_overlapping_volumes": 1}])
+
+
+def test_scale_applies_to_paths_only(meshes_dir, box):
+    path = str(meshes_dir / "Voron_Design_Cube_v7.stl")
+    with pytest.raises(vs.InputValueError, match=r"'b' is a vecslice\.Mesh"):
+        vs.sweep({"a": path, "b": box}, {"max_deviation": 5}, scale={"b": 2.0})
+    with pytest.raises(vs.InputValueError, match=r"only vecslice\.Mesh objects"):
+        vs.sweep({"b": box}, {"max_deviation": 5}, scale=25.4)
+    t = vs.sweep({"a": path, "b": box}, {"layer_height": [400]}, scale={"a": 2.0})
+    scaled = vs.load_mesh(path, scale=2.0)
+    assert t["height_um"].tolist() == [int(np.ptp(scaled.vertices[:, 2])),
+                                       int(np.ptp(box.vertices[:, 2]))]
+    assert t["height_um"][0] == 2 * int(np.ptp(vs.load_mesh(path).vertices[:, 2]))
+
+
+def test_arguments_of_other_types(box):
+    with pytest.raises(vs.InputTypeError, match=r"got bytes b'x.stl' \(decode it\)"):
+        vs.sweep(b"x.stl", {"max_deviation": 5})
+    with pytest.raises(vs.InputTypeError, match="`progress` must be True or False"):
+        vs.sweep(box, {"max_deviation": 5}, progress="yes")
+    t = vs.sweep(box, {"max_deviation": 5}, progress=np.False_)
+    assert (t["error"] == "").all()
+
+
+def test_cura_rows_read_paths_as_curaengine(meshes_dir):
+    # the 1000-gon cylinder: CuraEngine's reading (30 µm melding) changes the polygons
+    path = meshes_dir / "cura" / "cylinder1000.stl"
+    t = vs.sweep({"cyl": str(path)}, [{"compat": "cura"}, {}])
+    cura = vs.slice_mesh(vs.load_mesh(path, compat="cura"),
+                         vs.SliceSettings(compat="cura"))
+    plain = vs.slice_mesh(vs.load_mesh(path), vs.SliceSettings())
+    assert (t["error"] == "").all()
+    assert t["vertices"].tolist() == [cura.coords.shape[0], plain.coords.shape[0]]
+    as_default = vs.slice_mesh(vs.load_mesh(path), vs.SliceSettings(compat="cura"))
+    assert as_default.coords.shape[0] != cura.coords.shape[0]  # the reading matters
+
+
 def test_missing_dependencies_name_the_extra(monkeypatch, box):
     monkeypatch.setitem(sys.modules, "pandas", None)
     with pytest.raises(ImportError, match=r"pip install 'vecslice\[sweep\]'"):
