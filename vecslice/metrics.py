@@ -23,7 +23,6 @@ from numpy.typing import NDArray
 from vecslice._kernels.metrics import compare_range
 from vecslice._kernels.simplify import ring_perimeters
 from vecslice._threads import chunk_bounds, run_chunks
-from vecslice._validate import check_int
 from vecslice.errors import InputTypeError, InputValueError
 from vecslice.moves import MoveStats, move_stats
 from vecslice.paths import LayerPaths
@@ -142,7 +141,13 @@ class ContourErrors:
         return self.area_error_um2 / total if total else float("nan")
 
     def rings_beyond(self, limit_um: float) -> int:
-        """Number of kept rings whose measured deviation exceeds ``limit_um``."""
+        """Number of kept rings whose measured deviation exceeds ``limit_um``.
+
+        ``limit_um``: a number >= 0, µm (e.g. the ``max_deviation`` setting).
+        """
+        from vecslice.moves import _check_number
+
+        limit_um = _check_number(limit_um, "limit_um", "µm", zero=True)
         dev = self.deviation_um
         return int((dev[~np.isnan(dev)] > limit_um).sum())
 
@@ -239,10 +244,17 @@ def _contour_errors(raw: LayerPaths, simplified: LayerPaths,
     if raw.n_layers != simplified.n_layers or not np.array_equal(
         raw.layer_offsets, simplified.layer_offsets
     ):
+        raw_per = np.diff(raw.layer_offsets)
+        got_per = np.diff(simplified.layer_offsets)
+        if raw.n_layers != simplified.n_layers:
+            what = (f"{simplified.n_layers} layers against {raw.n_layers} in `raw`")
+        else:
+            k = int(np.flatnonzero(raw_per != got_per)[0])
+            what = (f"{int(got_per[k])} rings in layer {k} against "
+                    f"{int(raw_per[k])} in `raw`")
         raise InputValueError(
             "`simplified` must have one ring per ring of `raw` in the same layers "
-            f"({raw.n_layers} layers, {raw.n_rings} rings); got "
-            f"{simplified.n_layers} layers, {simplified.n_rings} rings"
+            f"(an empty ring where one was dropped); got {what}"
         )
     d1, d2, area, linear = _compare_rings(
         raw.coords, raw.ring_offsets, simplified.coords, simplified.ring_offsets,
@@ -382,7 +394,8 @@ class ResolutionStats:
 
 
 def resolution_stats(
-    model: SlicedModel, reference: LayerPaths | SlicedModel, *, speed_mm_s: int = 60
+    model: SlicedModel, reference: LayerPaths | SlicedModel, *,
+    speed_mm_s: float = 60,
 ) -> ResolutionStats:
     """Vertex count, move rate and shape error of ``model`` against ``reference``.
 
@@ -397,7 +410,7 @@ def resolution_stats(
     reference : LayerPaths or SlicedModel
         The same layers at full resolution, e.g. ``vs.slice_contours(mesh,
         model.slice_z)``.
-    speed_mm_s : int, default 60
+    speed_mm_s : float, default 60
         Print speed along contours, mm/s, ``> 0``.
 
     Returns
@@ -413,7 +426,9 @@ def resolution_stats(
     >>> stats.vertices, stats.mean_edge_um, bool(stats.relative_error < 1e-4)
     (256, 1960.0, True)
     """
-    speed = check_int(speed_mm_s, "speed_mm_s", minimum=1)
+    from vecslice.moves import _check_number
+
+    speed = _check_number(speed_mm_s, "speed_mm_s", "mm/s", zero=False)
     loops = model_loops(model)
     ref = model_loops(reference) if isinstance(reference, SlicedModel) else reference
     if not isinstance(ref, LayerPaths):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -137,8 +138,15 @@ def move_stats(
         )
     speed = _check_number(speed_mm_s, "speed_mm_s", "mm/s", zero=False)
     ctrl = _check_number(controller_ms, "controller_ms", "ms", zero=True)
+    if isinstance(percentiles, (str, bytes)) or not isinstance(
+        percentiles, (Sequence, np.ndarray)
+    ):
+        raise InputTypeError(
+            "`percentiles` must be a sequence of numbers (percent), e.g. (50,); "
+            f"got {type(percentiles).__name__} {percentiles!r}"
+        )
     q = tuple(_check_number(p, "percentiles", "percent", zero=True)
-              for p in percentiles)
+              for p in np.asarray(percentiles, dtype=object).reshape(-1))
     if any(p > 100 for p in q):
         raise SettingsError(f"`percentiles` must be in [0, 100]; got {percentiles!r}")
     d2 = _edge_d2(coords, offsets)

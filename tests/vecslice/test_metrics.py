@@ -38,8 +38,14 @@ def test_model_loops_and_identity(cylinder):
 
 def test_bad_arguments(cylinder):
     model = vs.slice_mesh(cylinder)
-    with pytest.raises(vs.SettingsError, match="`speed_mm_s` must be >= 1"):
+    with pytest.raises(vs.SettingsError, match=r"`speed_mm_s` must be finite and > 0 "
+                       r"\(mm/s\); got 0\.0"):
         resolution_stats(model, model, speed_mm_s=0)
+    # a speed in mm/s need not be whole, as in move_stats and sweep
+    ref = vs.slice_contours(cylinder, model.slice_z)
+    half = resolution_stats(model, ref, speed_mm_s=60.5)
+    assert half.moves_per_s == pytest.approx(
+        resolution_stats(model, ref, speed_mm_s=60).moves_per_s * 60.5 / 60)
     with pytest.raises(vs.InputTypeError, match="`reference` must be"):
         resolution_stats(model, [1, 2])
     with pytest.raises(vs.InputTypeError, match="`model` must be"):
@@ -75,6 +81,10 @@ def test_square_with_one_vertex_pushed_out_deviates_by_d(d):
     assert err.relative_area_error == pytest.approx(400 * d / (640000 + 400 * d))
     assert err.layer_max_deviation_um().tolist() == [d]
     assert err.rings_beyond(d) == 0 and err.rings_beyond(d - 0.5) == 1
+    for bad, kind in (("5", vs.InputTypeError), (None, vs.InputTypeError),
+                      (float("nan"), vs.SettingsError), (-1, vs.SettingsError)):
+        with pytest.raises(kind, match="`limit_um` must be"):
+            err.rings_beyond(bad)
 
 
 def test_dropped_ring_counts_its_area():
@@ -116,8 +126,12 @@ def test_ring_xor_matches_manifold3d_layer_xor_on_real_layers(meshes_dir):
 def test_contour_errors_checks_its_input():
     a = vs.LayerPaths([[0, 0], [10, 0], [0, 10]], [0, 3], [0, 1])
     b = vs.LayerPaths([[0, 0], [10, 0], [0, 10]], [0, 3], [0, 0, 1])
-    with pytest.raises(vs.InputValueError, match="`simplified` must have one ring"):
+    with pytest.raises(vs.InputValueError, match=r"`simplified` must have one ring.*"
+                       "got 2 layers against 1 in `raw`"):
         contour_errors(a, b)
+    c = vs.LayerPaths([[0, 0], [10, 0], [0, 10]] * 2, [0, 3, 6], [0, 2])
+    with pytest.raises(vs.InputValueError, match="got 2 rings in layer 0 against 1"):
+        contour_errors(a, c)
     with pytest.raises(vs.InputTypeError, match=r"`raw` must be a vecslice\.Layer"):
         contour_errors([1], a)
     with pytest.raises(vs.InputTypeError, match="`settings` must be"):
@@ -152,6 +166,10 @@ def test_move_stats_checks_its_input():
         move_stats(sq, speed_mm_s="fast")
     with pytest.raises(vs.InputTypeError, match="`source` must be"):
         move_stats([[0, 0]])
+    for bad in (50, "50", None):
+        with pytest.raises(vs.InputTypeError, match="`percentiles` must be a sequence"):
+            move_stats(sq, percentiles=bad)
+    assert move_stats(sq, percentiles=np.array([50])).length_percentiles_um == (10.0,)
     assert move_stats(vs.Paths(np.zeros((0, 2), np.int64), [0])).moves == 0
 
 
