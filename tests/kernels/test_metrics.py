@@ -294,9 +294,48 @@ def test_match_anchors_in_order_and_skips_moved_vertices():
                                                                      [0, -1, -1, 5])
     # the last simplified vertices, with nothing after them to stop at
     assert _anchors(raw, [(0, 0), (20, 20), (7, 7)]) == (True, [0, 5, -1])
-    # out of order: the scan for (10, 0) stops at (0, 0), the next simplified
-    # vertex, which is anchored instead
-    assert _anchors(raw, [(10, 0), (0, 0)]) == (True, [-1, 0])
+    # out of (cyclic) order: the scan for (5, 1) stops at (20, 20), the next
+    # simplified vertex, which is anchored instead
+    assert _anchors(raw, [(10, 0), (20, 0), (5, 1), (20, 20)]) == (True,
+                                                                    [2, 4, -1, 5])
+
+
+def test_match_starts_where_the_simplified_ring_starts():
+    raw = [(0, 0), (5, 1), (10, 0), (15, 1), (20, 0), (20, 20), (0, 20)]
+    # a simplified ring starting at raw vertex 4: anchors increase cyclically
+    assert _anchors(raw, [(20, 0), (0, 20), (0, 0), (10, 0)]) == (True, [4, 6, 0, 2])
+    # its first vertex moved: the match starts at the second one's raw vertex
+    assert _anchors(raw, [(21, 5), (20, 20), (0, 0), (10, 0)]) == (True,
+                                                                    [-1, 5, 0, 2])
+
+
+@settings(max_examples=40)
+@given(st.lists(star_rings(min_n=6, max_n=30), min_size=1, max_size=2),
+       st.integers(0, 3000), st.integers(0, 400), st.integers(1, 29))
+def test_rotated_simplified_rings_match_brute_force_in_one_pass(rings, max_res,
+                                                                 max_dev, shift):
+    # rings from another simplifier may start anywhere in their raw ring: still
+    # exact, and still measured by the linear pass (not all pairs)
+    rc, ro = _ragged(rings)
+    sc, so = simplify_rings(rc, ro, True, max_res, max_dev, 50000)
+    sc, so = remove_degenerate_vertices(sc, so)
+    simp = [np.roll(sc[so[i]:so[i + 1]], shift % max(1, so[i + 1] - so[i]), axis=0)
+            for i in range(len(rings))]
+    linear = _check(rings, simp)
+    rotated = _check(rings, [sc[so[i]:so[i + 1]] for i in range(len(rings))])
+    assert linear.tolist() == rotated.tolist()
+
+
+def test_a_rotated_large_ring_is_measured_in_linear_time():
+    # 20,000 vertices: all pairs would be 4e8 distances; a rotated copy of the
+    # ring itself is matched in one pass, every deviation 0
+    n = 20000
+    ang = 2 * np.pi * np.arange(n) / n
+    ring = np.rint(np.stack([1e6 * np.cos(ang), 1e6 * np.sin(ang)], 1)).astype(np.int64)
+    rc, ro = _ragged([ring])
+    sc, so = _ragged([np.roll(ring, 10, axis=0)])
+    d1, d2, area, linear = compare_rings(rc, ro, sc, so)
+    assert (d1[0], d2[0], area[0]) == (0.0, 0.0, 0.0) and linear[0]
 
 
 def test_match_gives_up_beyond_its_linear_budget():
