@@ -36,6 +36,9 @@ def _check_number(value: object, name: str, unit: str, *, zero: bool) -> float:
 class MoveStats:
     """The contour moves of a sliced model, one per vertex (edge of a ring).
 
+    Without moves (a model with no rings) the lengths, durations,
+    ``short_move_fraction`` and ``moves_per_s`` are NaN.
+
     Attributes
     ----------
     moves : int

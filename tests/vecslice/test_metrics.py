@@ -170,7 +170,10 @@ def test_move_stats_checks_its_input():
         with pytest.raises(vs.InputTypeError, match="`percentiles` must be a sequence"):
             move_stats(sq, percentiles=bad)
     assert move_stats(sq, percentiles=np.array([50])).length_percentiles_um == (10.0,)
-    assert move_stats(vs.Paths(np.zeros((0, 2), np.int64), [0])).moves == 0
+    none = move_stats(vs.Paths(np.zeros((0, 2), np.int64), [0]))
+    assert none.moves == 0 and none.total_length_um == 0.0
+    assert np.isnan([none.shortest_um, none.short_move_fraction, none.moves_per_s,
+                     *none.length_percentiles_um]).all()  # as documented
 
 
 def _prism(w, d, h):
