@@ -33,12 +33,12 @@ __version__ = "0.1.0"
 # public name -> module that defines it; loaded on first access (PEP 562)
 _LAZY = {
     "COORD_LIMIT": "vecslice.units",
+    "LayerParts": "vecslice.layerparts",
     "LayerPaths": "vecslice.paths",
     "Mesh": "vecslice.mesh",
     "MeshReport": "vecslice.mesh",
     "Paths": "vecslice.paths",
     "ResolutionStats": "vecslice.metrics",
-    "LayerParts": "vecslice.layerparts",
     "SliceSettings": "vecslice.settings",
     "SlicedModel": "vecslice.storage",
     "StageTimes": "vecslice.pipeline",

@@ -175,8 +175,7 @@ def load_info_lines(info: Any, *, melded: bool = False) -> list[str]:
         if value:
             forms = (_MELDED if melded and f.name == "vertices_merged"
                      else _CLEANUP.get(f.name) or _REPAIR.get(f.name))
-            label = (forms[0] if value == 1 else forms[1]) if forms else \
-                f.name.replace("_", " ")
+            label = forms[value != 1] if forms else f.name.replace("_", " ")
             (cleaned if f.name in _CLEANUP else repaired).append(f"{value:,} {label}")
     lines = []
     if cleaned:

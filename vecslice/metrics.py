@@ -24,7 +24,7 @@ from vecslice._kernels.metrics import compare_range
 from vecslice._kernels.simplify import ring_perimeters
 from vecslice._threads import chunk_bounds, run_chunks
 from vecslice.errors import InputTypeError, InputValueError
-from vecslice.moves import MoveStats, move_stats
+from vecslice.moves import MoveStats, _check_number, move_stats
 from vecslice.paths import LayerPaths
 from vecslice.settings import SliceSettings
 from vecslice.staircase import VolumeStats, volume_error
@@ -145,8 +145,6 @@ class ContourErrors:
 
         ``limit_um``: a number >= 0, µm (e.g. the ``max_deviation`` setting).
         """
-        from vecslice.moves import _check_number
-
         limit_um = _check_number(limit_um, "limit_um", "µm", zero=True)
         dev = self.deviation_um
         return int((dev[~np.isnan(dev)] > limit_um).sum())
@@ -247,7 +245,7 @@ def _contour_errors(raw: LayerPaths, simplified: LayerPaths,
         raw_per = np.diff(raw.layer_offsets)
         got_per = np.diff(simplified.layer_offsets)
         if raw.n_layers != simplified.n_layers:
-            what = (f"{simplified.n_layers} layers against {raw.n_layers} in `raw`")
+            what = f"{simplified.n_layers} layers against {raw.n_layers} in `raw`"
         else:
             k = int(np.flatnonzero(raw_per != got_per)[0])
             what = (f"{int(got_per[k])} rings in layer {k} against "
@@ -426,8 +424,6 @@ def resolution_stats(
     >>> stats.vertices, stats.mean_edge_um, bool(stats.relative_error < 1e-4)
     (256, 1960.0, True)
     """
-    from vecslice.moves import _check_number
-
     speed = _check_number(speed_mm_s, "speed_mm_s", "mm/s", zero=False)
     loops = model_loops(model)
     ref = model_loops(reference) if isinstance(reference, SlicedModel) else reference

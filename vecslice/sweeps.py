@@ -118,6 +118,10 @@ def _sources(meshes: Any) -> list[tuple[str, Any]]:
     return items
 
 
+class GridTypeError(SettingsError, InputTypeError):
+    """A grid value of the wrong type: a SettingsError, and a TypeError."""
+
+
 def _combinations(grid: Any) -> list[SliceSettings]:
     names = SliceSettings.option_names()
     if isinstance(grid, Mapping):
@@ -159,10 +163,6 @@ def _combinations(grid: Any) -> list[SliceSettings]:
             cls = GridTypeError if isinstance(exc, TypeError) else SettingsError
             raise cls(f"`grid` combination {c!r} is invalid: {exc}") from None
     return out
-
-
-class GridTypeError(SettingsError, InputTypeError):
-    """A grid value of the wrong type: a SettingsError, and a TypeError."""
 
 
 def _values(key: str, values: Any) -> list[Any]:
@@ -679,12 +679,14 @@ def sweep(
     groups = _schedule_groups(combos)
     tasks = []
     for mi, (name, source) in enumerate(items):
-        preps: dict[str, Any] = {}  # a path is read once per way of reading it
+        # a path is read once per way of reading it; a Mesh is prepared once
+        is_path = isinstance(source, (str, os.PathLike))
+        preps: dict[str, Any] = {}
         for group in groups:
-            compat = getattr(group[0][1], "compat", "vecslice")
+            compat = getattr(group[0][1], "compat", "vecslice") if is_path else ""
             if compat not in preps:
                 preps[compat] = dask.delayed(_prepare, pure=False)(
-                    source, scales[name], compat)
+                    source, scales[name], compat or "vecslice")
             tasks.append((mi, name, group, dask.delayed(_rows, pure=False)(
                 preps[compat], mi, name, group, speed, ctrl)))
     if client is None:

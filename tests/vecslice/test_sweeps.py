@@ -193,6 +193,26 @@ def test_cura_rows_read_paths_as_curaengine(meshes_dir):
     assert as_default.coords.shape[0] != cura.coords.shape[0]  # the reading matters
 
 
+def test_each_mesh_is_prepared_once_per_way_of_reading_it(monkeypatch, meshes_dir,
+                                                          box):
+    import vecslice.sweeps as sw
+
+    calls = []
+    real = sw._prepare
+
+    def spy(source, scale, compat="vecslice"):
+        calls.append((str(source)[-8:], compat))
+        return real(source, scale, compat)
+
+    monkeypatch.setattr(sw, "_prepare", spy)
+    grid = [{"compat": "cura"}, {}, {"compat": "cura", "layer_height": 300}]
+    vs.sweep({"box": box}, grid)
+    assert calls == [(str(box)[-8:], "vecslice")]  # a Mesh: once, used as it is
+    calls.clear()
+    vs.sweep({"cyl": str(meshes_dir / "cura" / "cylinder1000.stl")}, grid)
+    assert sorted(calls) == [("1000.stl", "cura"), ("1000.stl", "vecslice")]
+
+
 def test_missing_dependencies_name_the_extra(monkeypatch, box):
     monkeypatch.setitem(sys.modules, "pandas", None)
     with pytest.raises(ImportError, match=r"pip install 'vecslice\[sweep\]'"):
