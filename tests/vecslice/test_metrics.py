@@ -277,3 +277,19 @@ def test_threaded_compare_rings_matches_the_serial_kernel(monkeypatch):
     assert want[2].max() > 0
     for g, w in zip(got, want, strict=True):
         np.testing.assert_array_equal(g, w)
+
+
+def test_deviation_is_measured_from_vertices():
+    # a sliver whose middle vertex is dropped: every vertex is within 10 µm of the
+    # other ring ((500, 90) is 10 µm from the top edge), though the simplified
+    # edge's midpoint (500, 0) is 88.6 µm from the raw ring: as documented, the
+    # deviation is a lower bound of the Hausdorff distance
+    raw = vs.LayerPaths([[0, 0], [500, 90], [1000, 0], [1000, 100], [0, 100]],
+                        [0, 5], [0, 1])
+    simp = vs.LayerPaths([[0, 0], [1000, 0], [1000, 100], [0, 100]], [0, 4], [0, 1])
+    err = contour_errors(raw, simp)
+    assert err.max_deviation_um == 10.0
+    assert err.raw_to_simplified_um.tolist() == [10.0]
+    assert err.simplified_to_raw_um.tolist() == [0.0]
+    mid_gap = 500 * 90 / np.hypot(500, 90)  # (500, 0) to the edge (0,0)-(500,90)
+    assert mid_gap > 88 > err.max_deviation_um
