@@ -3,10 +3,12 @@
 Usage: python benchmarks/slicing_ratios.py [--copies 5] [--no-trimesh]
 
 Times each library on the same mesh (``copies`` 3DBenchy side by side) and the same
-0.1 mm heights: vecslice from a freshly built Mesh to loops (best of 5), manifold3d
-building its Manifold and slicing every height (best of 3), trimesh
+0.1 mm heights: vecslice from the int64 µm arrays (``Mesh.from_arrays``, which merges
+vertices and whose first slice builds the topology, then ``slice_contours``; best of
+5), manifold3d building its Manifold and slicing every height (best of 3), trimesh
 section_multiplane (once; it is slow). Then times vecslice on twice the copies to
-show how the time scales.
+show how the time scales. A quick look, not interleaved: ``benchmarks/report.py``
+prints the README's table (interleaved repeats, medians and ranges, MeshLib too).
 """
 
 from __future__ import annotations
@@ -21,7 +23,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import numba
 
 import vecslice as vs
-from _workloads import heights, manifold_slices, plate, trimesh_sections
+from _workloads import (
+    heights,
+    manifold_slices,
+    plate,
+    trimesh_sections,
+    vecslice_contours,
+)
 
 
 def best(fn, *args, repeat: int) -> float:
@@ -45,16 +53,17 @@ def main() -> None:
     print(f"mesh: {args.copies} x 3DBenchy, {mesh.n_faces:,} faces, {len(z)} layers, "
           f"{loops.coords.shape[0]:,} crossings, numba threads "
           f"{numba.get_num_threads()}")
-    t_vs = best(vs.slice_contours, mesh, z, repeat=5)
+    v, f = mesh.vertices.copy(), mesh.faces.copy()  # a new Mesh in every call
+    t_vs = best(vecslice_contours, v, f, z, repeat=5)
     t_mf = best(manifold_slices, mesh, z, repeat=3)
-    print(f"vecslice slice_contours : {t_vs:8.3f} s")
+    print(f"vecslice from arrays    : {t_vs:8.3f} s")
     print(f"manifold3d build+slice  : {t_mf:8.3f} s   ratio {t_mf / t_vs:6.1f}x")
     if not args.no_trimesh:
         t_tm = best(trimesh_sections, mesh, z, repeat=1)
         print(f"trimesh multiplane      : {t_tm:8.3f} s   ratio {t_tm / t_vs:6.1f}x")
     double = plate(2 * args.copies)
-    vs.slice_contours(double, z[:2])
-    t_2 = best(vs.slice_contours, double, z, repeat=3)
+    v2, f2 = double.vertices.copy(), double.faces.copy()
+    t_2 = best(vecslice_contours, v2, f2, z, repeat=3)
     print(f"vecslice on {2 * args.copies} copies    : {t_2:8.3f} s   "
           f"{t_2 / t_vs:.2f}x the time for 2x the work")
 
