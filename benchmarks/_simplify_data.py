@@ -49,3 +49,14 @@ def benchy_loops(copies: int = 5) -> tuple[np.ndarray, np.ndarray]:
     mesh = plate(copies)
     p = vs.slice_contours(mesh, heights(mesh)).paths()
     return np.ascontiguousarray(p.coords), np.ascontiguousarray(p.ring_offsets)
+
+
+def vecslice_simplify(coords: np.ndarray, offsets: np.ndarray):
+    """vecslice's way from its natural input, ragged int64 arrays: wrap, simplify.
+
+    The wrapping (``vs.Paths`` checks the arrays) is timed with the simplification,
+    as clipper2 converts its list of rings inside its call.
+    """
+    import vecslice as vs
+
+    return vs.simplify(vs.Paths(coords, offsets))

@@ -41,7 +41,12 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
 import vecslice as vs  # noqa: E402
-from _simplify_data import MAX_DEVIATION, as_ring_list, noisy_circles  # noqa: E402
+from _simplify_data import (  # noqa: E402
+    MAX_DEVIATION,
+    as_ring_list,
+    noisy_circles,
+    vecslice_simplify,
+)
 from _workloads import (  # noqa: E402
     benchy,
     heights,
@@ -80,27 +85,14 @@ print(peak - before, mesh.vertices.nbytes + mesh.faces.nbytes, out)
 
 
 class Timer:
-    """Wall and CPU seconds of one call, and the most OS threads seen during it."""
-
-    def __init__(self) -> None:
-        self.threads = 0
-
-    def _watch(self, stop: threading.Event) -> None:
-        while not stop.is_set():
-            self.threads = max(self.threads, _os_threads())
-            stop.wait(0.005)
+    """Wall and CPU seconds of one call."""
 
     def __call__(self, fn, *args):
-        stop = threading.Event()
-        watcher = threading.Thread(target=self._watch, args=(stop,), daemon=True)
-        watcher.start()
         c = time.process_time()
         t = time.perf_counter()
         out = fn(*args)
         wall = time.perf_counter() - t
         cpu = time.process_time() - c
-        stop.set()
-        watcher.join()
         return out, wall, cpu
 
 
@@ -112,12 +104,11 @@ def _os_threads() -> int:
 
 
 class Series:
-    """Repeated measurements of one thing: wall times, CPU times, threads."""
+    """Repeated measurements of one thing: wall times and CPU times."""
 
     def __init__(self) -> None:
         self.wall: list[float] = []
         self.cpu: list[float] = []
-        self.threads = 0
 
     def add(self, timer: Timer, fn, *args):
         out, wall, cpu = timer(fn, *args)
@@ -125,10 +116,9 @@ class Series:
         return out
 
     def record(self, timer: Timer, wall: float, cpu: float) -> None:
-        """One sample: wall and CPU seconds, and the threads ``timer`` has seen."""
+        """One sample: wall and CPU seconds."""
         self.wall.append(wall)
         self.cpu.append(cpu)
-        self.threads = max(self.threads, timer.threads - 1)  # less the watcher
 
     @property
     def median(self) -> float:
@@ -297,9 +287,10 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         a, b = first_and_second(v_um, f)
         seconds["first"].append(a)
         seconds["second"].append(b)
-        S["simp_c"].add(timer, vs.simplify, circle_paths)
+        S["simp_c"].add(timer, vecslice_simplify, *circles)
         S["clip_c"].add(timer, clipper2.simplify_paths, circle_rings, eps, True)
-        S["simp_b"].add(timer, vs.simplify, raw_paths)
+        S["simp_b"].add(timer, vecslice_simplify, raw_paths.coords,
+                        raw_paths.ring_offsets)
         S["clip_b"].add(timer, clipper2.simplify_paths, raw_rings, eps, True)
         scaling_repeat(timer, S, size_arrays)
         if not args.no_trimesh and rep < args.trimesh_repeat:
@@ -372,6 +363,10 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         how.append(f"in the scaling row a repeat is the median of {SCALING_ROUNDS} "
                    "interleaved rounds of the sizes")
     notes = [
+        "Ratios are the peer's time over vecslice's (above 1: vecslice is faster), "
+        "except the floor row (vecslice over the floor), the second-slice row "
+        "(second over first slice) and the scaling row (each size over the one "
+        "before); simplify rates are vertices per second.",
         f"Measured {datetime.date.today().isoformat()} with `python benchmarks/"
         f"report.py{' --quick' if args.quick else ''}` ({'; '.join(how)}).",
         f"Workload: {what}, {n_faces:,} faces, "

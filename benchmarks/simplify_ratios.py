@@ -2,7 +2,10 @@
 and of vs.simplify and clipper2 on the raw loops of five 3DBenchy copies at 0.1 mm.
 
 Run: ``python benchmarks/simplify_ratios.py`` (best of ``--repeat`` runs each;
-``--no-mesh`` skips the real-mesh input, which takes a few seconds to slice).
+``--no-mesh`` skips the real-mesh input, which takes a few seconds to slice). Each
+library starts from its natural input (vecslice ragged int64 arrays, clipper2 a list
+of rings, shapely and manifold3d float64 rings) and builds its structures inside the
+timing.
 """
 
 from __future__ import annotations
@@ -20,12 +23,12 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 import shapely  # noqa: E402
 
-import vecslice as vs  # noqa: E402
 from _simplify_data import (  # noqa: E402
     MAX_DEVIATION,
     as_ring_list,
     benchy_loops,
     noisy_circles,
+    vecslice_simplify,
 )
 
 
@@ -46,17 +49,16 @@ def main() -> None:
     ap.add_argument("--no-mesh", action="store_true")
     args = ap.parse_args()
     coords, offsets = noisy_circles(args.rings, args.verts)
-    paths = vs.Paths(coords, offsets)
     rings = as_ring_list(coords, offsets)
-    polys = shapely.polygons([r.astype(np.float64) for r in rings])
-    cs = manifold3d.CrossSection([r.astype(np.float64) for r in rings])
+    frings = [r.astype(np.float64) for r in rings]  # shapely's, manifold3d's input
     eps = float(MAX_DEVIATION)
-    vs.simplify(paths)  # warm the JIT
+    vecslice_simplify(coords, offsets)  # warm the JIT
+    # each library from its natural input, building its structures in the timing
     runs = {
-        "vecslice": lambda: vs.simplify(paths),
+        "vecslice": lambda: vecslice_simplify(coords, offsets),
         "clipper2": lambda: clipper2.simplify_paths(rings, eps, True),
-        "shapely": lambda: shapely.simplify(polys, eps),
-        "manifold3d": lambda: cs.simplify(eps),
+        "shapely": lambda: shapely.simplify(shapely.polygons(frings), eps),
+        "manifold3d": lambda: manifold3d.CrossSection(frings).simplify(eps),
     }
     n = coords.shape[0]
     print(f"{args.rings} noisy circles x {args.verts} vertices = {n} vertices; "
@@ -74,11 +76,10 @@ def main() -> None:
 def mesh_ratio(repeat: int) -> None:
     """vs.simplify against clipper2 on the raw loops of five Benchies at 0.1 mm."""
     coords, offsets = benchy_loops(5)
-    paths = vs.Paths(coords, offsets)
     rings = as_ring_list(coords, offsets)
-    vs.simplify(paths)
+    vecslice_simplify(coords, offsets)
     runs = {
-        "vecslice": lambda: vs.simplify(paths),
+        "vecslice": lambda: vecslice_simplify(coords, offsets),
         "clipper2": lambda: clipper2.simplify_paths(rings, float(MAX_DEVIATION), True),
     }
     n = coords.shape[0]
