@@ -36,3 +36,11 @@ def test_trimesh_load(benchmark, path):
     loaded = benchmark(trimesh.load, path, process=False)
     geoms = loaded.geometry.values() if isinstance(loaded, trimesh.Scene) else [loaded]
     assert sum(len(g.faces) for g in geoms) >= FILES[path.name]
+
+
+@pytest.mark.benchmark(group="repair-mesh")
+def test_vecslice_repair(benchmark, path):
+    """Orientation repair (windings made consistent, shells turned outward)."""
+    mesh = vs.load_mesh(path, repair=False)
+    repaired = benchmark(mesh.repaired)
+    assert repaired.n_faces <= mesh.n_faces
