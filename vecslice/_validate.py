@@ -72,6 +72,8 @@ def check_coord_range(a: NDArray[np.int64], name: str) -> None:
     if a.size == 0:
         return
     flat = a.reshape(-1)
+    if flat.min() > -COORD_LIMIT and flat.max() < COORD_LIMIT:
+        return  # two reductions, no temporaries: the common case
     bad = np.flatnonzero((flat >= COORD_LIMIT) | (flat <= -COORD_LIMIT))
     if bad.size:
         i = int(bad[0])
