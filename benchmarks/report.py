@@ -362,11 +362,13 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
     if size_arrays:
         how.append(f"in the scaling row a repeat is the median of {SCALING_ROUNDS} "
                    "interleaved rounds of the sizes")
+    scaling = (" and the scaling row (each size over the one before)"
+               if size_arrays else "")
     notes = [
         "Ratios are the peer's time over vecslice's (above 1: vecslice is faster), "
         "except the floor row (vecslice over the floor), the second-slice row "
-        "(second over first slice) and the scaling row (each size over the one "
-        "before); simplify rates are vertices per second.",
+        f"(second over first slice){scaling}; simplify rates are vertices per "
+        "second.",
         f"Measured {datetime.date.today().isoformat()} with `python benchmarks/"
         f"report.py{' --quick' if args.quick else ''}` ({'; '.join(how)}).",
         f"Workload: {what}, {n_faces:,} faces, "
