@@ -31,10 +31,10 @@ def test_vecslice_slice_mesh(benchmark, workload):
     name, mesh, z = workload
     _info(benchmark, name, mesh, z)
     times = vs.StageTimes()
-    v, f = mesh.vertices.copy(), mesh.faces.copy()
+    vertices, faces = mesh.vertices.copy(), mesh.faces.copy()
 
     def from_arrays():
-        return vs.slice_mesh(vs.Mesh.from_arrays(v, f), times=times)
+        return vs.slice_mesh(vs.Mesh.from_arrays(vertices, faces), times=times)
 
     model = benchmark.pedantic(from_arrays, rounds=3, iterations=1)
     benchmark.extra_info.update({f"s_{k}": v for k, v in times.seconds.items()})

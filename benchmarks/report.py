@@ -230,7 +230,6 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
     v1_um, f1 = one.vertices.copy(), one.faces.copy()
     v1_64, f1_64 = mm_arrays(one, np.float64)
     circles = noisy_circles()
-    circle_paths = vs.Paths(*circles)
     circle_rings = as_ring_list(*circles)
     sizes = {c: plate(c) for c in (2, 4, 8)} if not args.quick else {}
     size_arrays = {c: (m.vertices.copy(), m.faces.copy(), heights(m))
@@ -264,13 +263,13 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         fn(*fargs)
         pools[name] = _os_threads() - before
     full_slice(v1_um, f1)
-    vs.simplify(circle_paths)
+    vecslice_simplify(*circles)
     floor_args = floor_inputs(five, z)
     _floor_pass(*floor_args)
     raw = vecslice_contours(v_um, f, z).paths()
-    raw_paths = vs.Paths(np.ascontiguousarray(raw.coords),
-                         np.ascontiguousarray(raw.ring_offsets))
-    raw_rings = as_ring_list(raw_paths.coords, raw_paths.ring_offsets)
+    raw_loops = (np.ascontiguousarray(raw.coords),
+                 np.ascontiguousarray(raw.ring_offsets))
+    raw_rings = as_ring_list(*raw_loops)
 
     S = {k: Series() for k in (
         "vs", "mf", "ml", "vs1", "tm", "full", "mf_full", "first", "second",
@@ -289,8 +288,7 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         seconds["second"].append(b)
         S["simp_c"].add(timer, vecslice_simplify, *circles)
         S["clip_c"].add(timer, clipper2.simplify_paths, circle_rings, eps, True)
-        S["simp_b"].add(timer, vecslice_simplify, raw_paths.coords,
-                        raw_paths.ring_offsets)
+        S["simp_b"].add(timer, vecslice_simplify, *raw_loops)
         S["clip_b"].add(timer, clipper2.simplify_paths, raw_rings, eps, True)
         scaling_repeat(timer, S, size_arrays)
         if not args.no_trimesh and rep < args.trimesh_repeat:
@@ -326,7 +324,7 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
     ]
     for key, clip, label, n in [
         ("simp_c", "clip_c", "1,000 noisy circles × 1,000", circles[0].shape[0]),
-        ("simp_b", "clip_b", "the Benchy raw loops", raw_paths.coords.shape[0]),
+        ("simp_b", "clip_b", "the Benchy raw loops", raw_loops[0].shape[0]),
     ]:
         rows.append((f"`simplify`, CuraEngine rules, {label}",
                      f"{n / S[key].median / 1e6:.3g} M vertices/s",
