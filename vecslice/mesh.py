@@ -198,20 +198,27 @@ class Mesh:
         return twins
 
     def _cura_topology(self) -> tuple[NDArray[np.int64], ...]:
-        """``(vf_offsets, vf_faces, neighbours)`` of CuraEngine's mesh, built once.
+        """``(faces, vf_offsets, vf_faces, neighbours)`` of CuraEngine's mesh, built once.
 
-        The faces of each vertex (:func:`vertex_faces`) and the face across each
-        face edge (:func:`face_neighbours`, which also reads the vertices: a moved
-        copy builds its own). Cached like :meth:`_half_edge_twins`.
+        ``faces`` are this mesh's faces without those that repeat a vertex index
+        (CuraEngine's ``addFace`` drops them; ``Mesh(vertices, faces)`` keeps
+        them), the same array when there are none. Then the faces of each vertex
+        (:func:`vertex_faces`) and the face across each face edge
+        (:func:`face_neighbours`, which also reads the vertices: a moved copy
+        builds its own). Cached like :meth:`_half_edge_twins`.
         """
         cura = self._cura
         if cura is None:
             from vecslice._kernels.cura_mesh import face_neighbours, vertex_faces
 
-            vf_offsets, vf_faces = vertex_faces(self.faces, self.vertices.shape[0])
-            neighbours = face_neighbours(self.vertices, self.faces, vf_offsets,
-                                         vf_faces)
-            cura = (_freeze(vf_offsets), _freeze(vf_faces), _freeze(neighbours))
+            f = self.faces
+            a, b, c = f[:, 0], f[:, 1], f[:, 2]
+            repeated = (a == b) | (b == c) | (a == c)
+            if repeated.any():
+                f = _freeze(np.ascontiguousarray(f[~repeated]))
+            vf_offsets, vf_faces = vertex_faces(f, self.vertices.shape[0])
+            neighbours = face_neighbours(self.vertices, f, vf_offsets, vf_faces)
+            cura = (f, _freeze(vf_offsets), _freeze(vf_faces), _freeze(neighbours))
             object.__setattr__(self, "_cura", cura)
         return cura
 
