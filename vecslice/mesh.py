@@ -198,7 +198,7 @@ class Mesh:
         return twins
 
     def _cura_topology(self) -> tuple[NDArray[np.int64], ...]:
-        """``(faces, vf_offsets, vf_faces, neighbours)`` of CuraEngine's mesh, built once.
+        """CuraEngine's ``(faces, vf_offsets, vf_faces, neighbours)``, built once.
 
         ``faces`` are this mesh's faces without those that repeat a vertex index
         (CuraEngine's ``addFace`` drops them; ``Mesh(vertices, faces)`` keeps
