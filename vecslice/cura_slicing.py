@@ -167,7 +167,7 @@ def cura_raw(
             f"`slice_z` must be sorted (non-decreasing); got {z[i]} > {z[i + 1]} at "
             f"index {i}"
         )
-    limit = (int(vertices[:, 2].min()) + 1 if compensate_below is None
+    limit = (mesh._corner_zrange()[0] + 1 if compensate_below is None
              else compensate_below)
     # built once per mesh; faces that repeat a vertex index are dropped, as
     # CuraEngine's addFace drops them (their corners still count for the limit)

@@ -173,8 +173,7 @@ def layer_heights(
         )
     if settings.adaptive_layers:
         return adaptive_layer_heights(mesh, settings)
-    verts = mesh.vertices
-    zmin = int(verts[:, 2].min())
-    zmax = int(verts[:, 2].max())
+    # the model's z range: face corners (a vertex no face uses is not sliced)
+    zmin, zmax = mesh._corner_zrange()
     z, print_z, thickness = layer_schedule(zmax - zmin, settings)
     return z + zmin, print_z, thickness

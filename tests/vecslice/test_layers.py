@@ -41,6 +41,29 @@ def test_layer_heights_are_measured_from_the_lowest_point():
     assert (p0 == p1).all() and (t0 == t1).all()
 
 
+@pytest.mark.parametrize("compat", ["vecslice", "cura"])
+@pytest.mark.parametrize("stray_z", [-50, 500_000])
+def test_a_vertex_no_face_uses_does_not_move_the_schedule(compat, stray_z):
+    """vs.Mesh keeps unused vertices; the schedule is the faces' (as CuraEngine's
+    vertex list, and the adaptive schedule, hold only vertices of faces)."""
+    v = np.array([[0, 0, 0], [1000, 0, 0], [0, 1000, 0], [0, 0, 3000]])
+    f = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    base = vs.Mesh(v, f)
+    stray = vs.Mesh(np.vstack([v, [[9, 9, stray_z]]]), f)
+    s = vs.SliceSettings(compat=compat)
+    for got, want in zip(vs.layer_heights(stray, s), vs.layer_heights(base, s),
+                         strict=True):
+        assert np.array_equal(got, want)
+    a, b = vs.slice_mesh(stray, s), vs.slice_mesh(base, s)
+    assert np.array_equal(a.coords, b.coords) and a.n_layers == b.n_layers
+    from vecslice.metrics import volume_error
+
+    va = volume_error(a, stray)
+    vb = volume_error(b, base)
+    assert va == vb
+    assert stray._corner_zrange() == (0, 3000) and stray.zrange[0] == min(0, stray_z)
+
+
 def test_default_settings():
     mesh = vs.Mesh.from_arrays(
         np.array([[0, 0, 0], [1000, 0, 0], [0, 1000, 0], [0, 0, 1000]]),
