@@ -54,8 +54,8 @@ def _volume_below(vertices: NDArray[np.int64], faces: NDArray[np.int64],
                   zmin: int, height: float) -> float:
     """Signed volume (µm³) of the closed mesh below ``z = zmin + height``.
 
-    ``zmin`` is the mesh's lowest face corner. Divergence theorem with the field (x, 0, 0): the cut face is horizontal and
-    contributes nothing, so the volume is the sum over the faces' parts below the
+    ``zmin`` is the mesh's lowest face corner. Divergence theorem with the field
+    (x, 0, 0): the cut face is horizontal and contributes nothing, so the volume is the sum over the faces' parts below the
     plane of ``n_x * area * centroid_x`` (triangles clipped, in float64).
     """
     v = vertices.astype(np.float64)
