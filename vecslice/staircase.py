@@ -55,8 +55,9 @@ def _volume_below(vertices: NDArray[np.int64], faces: NDArray[np.int64],
     """Signed volume (µm³) of the closed mesh below ``z = zmin + height``.
 
     ``zmin`` is the mesh's lowest face corner. Divergence theorem with the field
-    (x, 0, 0): the cut face is horizontal and contributes nothing, so the volume is the sum over the faces' parts below the
-    plane of ``n_x * area * centroid_x`` (triangles clipped, in float64).
+    (x, 0, 0): the cut face is horizontal and contributes nothing, so the volume
+    is the sum over the faces' parts below the plane of ``n_x * area *
+    centroid_x`` (triangles clipped, in float64).
     """
     v = vertices.astype(np.float64)
     v -= v.mean(axis=0)
