@@ -283,8 +283,12 @@ def _errors_of(raw: LayerPaths,
 
 
 def _raw_area_um2(raw: LayerPaths) -> NDArray[np.float64]:
-    """The net area of each layer of ``raw``, µm² (signed ring areas summed)."""
-    return raw.layer_area2().astype(np.float64) / 2
+    """The net area of each layer of ``raw``, µm² (signed ring areas summed).
+
+    Summed in float64 (the result is float): no int64 sum that could wrap.
+    """
+    return np.bincount(raw.ring_layer(), weights=raw.area2().astype(np.float64),
+                       minlength=raw.n_layers) / 2
 
 
 def simplification_errors(
