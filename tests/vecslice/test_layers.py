@@ -64,6 +64,23 @@ def test_a_vertex_no_face_uses_does_not_move_the_schedule(compat, stray_z):
     assert stray._corner_zrange() == (0, 3000) and stray.zrange[0] == min(0, stray_z)
 
 
+def test_a_schedule_beyond_the_coordinate_limit_is_refused_by_name():
+    """The last adaptive layer ends above the model: on a mesh whose top is near
+    2**30 µm it used to fail later, blaming a `slice_z` the user never gave."""
+    x = 2**30 - 1
+    m = vs.Mesh.from_arrays([[-x, -x, -x], [x, -x, -x], [0, x, -x], [0, 0, x]],
+                            [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    s = vs.SliceSettings(layer_height=10**8, initial_layer_height=10**8,
+                         adaptive_layers=True, adaptive_variation=0)
+    match = (r"the layer schedule must stay below z = 2\*\*30 µm .*; got layer 21 at "
+             r"z = 1126258177 µm, above a mesh whose top is at 1073741823 µm \(the "
+             r"last adaptive layer ends above the model\): move the mesh down")
+    with pytest.raises(vs.InputValueError, match=match):
+        vs.layer_heights(m, s)
+    with pytest.raises(vs.InputValueError, match=match):
+        vs.slice_mesh(m, s)
+
+
 def test_default_settings():
     mesh = vs.Mesh.from_arrays(
         np.array([[0, 0, 0], [1000, 0, 0], [0, 1000, 0], [0, 0, 1000]]),
