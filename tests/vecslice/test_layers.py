@@ -123,11 +123,15 @@ def test_bad_settings(kwargs, error, fragment):
     with pytest.raises(error, match=fragment.replace("(", r"\(")) as info:
         vs.SliceSettings(**kwargs)
     assert isinstance(info.value, vs.VecsliceError)
+    # every bad setting is a SettingsError (as errors.py says), wrong types also
+    # TypeErrors: `except vs.SettingsError` catches them all
+    assert isinstance(info.value, vs.SettingsError)
 
 
 def test_unknown_setting_is_rejected():
-    with pytest.raises(TypeError, match="layer_hieght"):
+    with pytest.raises(TypeError, match="layer_hieght") as info:
         vs.SliceSettings(layer_hieght=100)
+    assert isinstance(info.value, vs.SettingsError)
 
 
 def test_layer_heights_rejects_non_settings():
