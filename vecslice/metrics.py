@@ -26,6 +26,7 @@ from vecslice._threads import chunk_bounds, run_chunks
 from vecslice.errors import InputTypeError, InputValueError
 from vecslice.moves import MoveStats, _check_number, move_stats
 from vecslice.paths import LayerPaths
+from vecslice.ragged import freeze
 from vecslice.settings import SliceSettings
 from vecslice.staircase import VolumeStats, volume_error
 from vecslice.storage import SlicedModel
@@ -95,6 +96,13 @@ class ContourErrors:
     linear: NDArray[np.bool_]
     ring_layer: NDArray[np.int64]
     raw_area_um2: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        # read-only, like every container's arrays: writing into one would change
+        # the maxima and sums computed from it (see ragged.freeze)
+        for name in ("raw_to_simplified_um", "simplified_to_raw_um", "xor_area_um2",
+                     "linear", "ring_layer", "raw_area_um2"):
+            object.__setattr__(self, name, freeze(np.asarray(getattr(self, name))))
 
     @property
     def n_layers(self) -> int:
