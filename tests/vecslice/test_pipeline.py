@@ -231,5 +231,5 @@ def test_clean_loops_checks_its_arguments():
         raw, vs.SliceSettings()).coords.tolist()  # settings default to Cura's
     with pytest.raises(vs.InputTypeError, match="`settings` must be a vecslice"):
         vs.clean_loops(raw, {"max_deviation": 25})
-    with pytest.raises(vs.InputTypeError, match="`loops` must be a vecslice.LayerPaths"):
+    with pytest.raises(vs.InputTypeError, match="`loops` must be a vecslice"):
         vs.clean_loops(raw.paths(), vs.SliceSettings())  # used to be AttributeError
