@@ -78,8 +78,9 @@ class ContourErrors:
         dropped.
     xor_area_um2 : ndarray of shape (R,), float64
         ``∫ |w_raw - w_simplified| dA`` in µm² (winding numbers): the area of the
-        symmetric difference of the two rings when both are simple; the whole
-        raw area for a dropped ring.
+        symmetric difference of the two rings when both are simple and wound the
+        same way (rings of opposite windings count their overlap twice); the
+        whole raw area for a dropped ring.
     linear : ndarray of shape (R,), bool
         Whether the pass over the order correspondence settled the ring's XOR
         area (pieces that may overlap measured together by a sweep); where not,

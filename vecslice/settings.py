@@ -33,7 +33,11 @@ class SliceSettings:
     max_resolution : int, default 500
         Edges shorter than this (µm) may be removed by simplification.
     max_deviation : int, default 25
-        Largest distance (µm) a simplified contour may move away from the raw one.
+        CuraEngine's per-removal threshold (µm): a vertex is removed only if it
+        lies within this distance of the line through its kept neighbours (and a
+        short edge is replaced by an intersection only within it). Removals
+        accumulate, so the simplified contour can end up further than this from
+        the raw one; :mod:`vecslice.metrics` measures how far.
     max_area_deviation : int, default 50000
         Largest extrusion-area change (µm²) for variable-width paths.
     minimum_polygon_circumference : int, default 1000
