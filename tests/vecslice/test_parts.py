@@ -203,9 +203,35 @@ def test_trimesh_cross_sections():
     check_invariants(parts)
     assert np.diff(parts.part_offsets).tolist() == [2, 1]  # ring + hole, then disc
     assert layer_area2(parts)[0] == 2 * want.area
-    assert {tuple(v) for v in parts.coords.tolist()} == {
-        tuple(v) for r in rings for v in r.tolist()
-    }
+    # the input's vertices, exactly, but for those strictly between their two
+    # neighbours on a line (the union removes collinear points: SLICING.md)
+    kept = set()
+    for r in rings:
+        d0 = r - np.roll(r, 1, axis=0)
+        d1 = np.roll(r, -1, axis=0) - r
+        straight = (d0[:, 0] * d1[:, 1] == d0[:, 1] * d1[:, 0]) & (
+            (d0 * d1).sum(axis=1) > 0)
+        kept |= {tuple(v) for v in r[~straight].tolist()}
+    assert {tuple(v) for v in parts.coords.tolist()} == kept
+
+
+def test_union_removes_collinear_points():
+    """Clipper2 keeps a point between two collinear edges; CuraEngine's union
+    (and SLICING.md) remove it: in make_parts and in the 'inclusive'/'exclusive'
+    tolerances (two layers' walls along one line left 472 on 3DBenchy)."""
+    a = [[0, 0], [10, 0], [20, 0], [20, 10], [0, 10]]  # (10, 0) is collinear
+    parts = make_parts(stack([np.array(a)]))
+    assert parts.coords.tolist() == [[0, 0], [20, 0], [20, 10], [0, 10]]
+    b = [[10, 0], [30, 0], [30, 10], [10, 10]]  # overlaps a: the walls y = 0, 10
+    loops = LayerPaths(a + b, [0, 5, 9], [0, 1, 2])
+    for mode in ("inclusive", "exclusive"):
+        out = apply_slicing_tolerance(loops, mode)
+        for ring in out.layer(0):
+            d0 = ring - np.roll(ring, 1, axis=0)
+            d1 = np.roll(ring, -1, axis=0) - ring
+            cross = d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0]
+            assert (cross != 0).all(), (mode, ring.tolist())
+        assert [len(r) for r in out.layer(0)] == [4]  # 30 x 10, or 10 x 10
 
 
 @st.composite
