@@ -306,7 +306,11 @@ class Mesh:
             vertices_unused=base.vertices_unused + n_unused,
             faces_degenerate=base.faces_degenerate + n_deg,
         )
-        return cls._trusted(v2, f2, info)
+        mesh = cls._trusted(v2, f2, info)
+        # every vertex is a face corner now (unused ones were dropped): the
+        # corners' z range is the vertices', two reductions instead of a gather
+        object.__setattr__(mesh, "_zcorners", mesh.zrange)
+        return mesh
 
     @property
     def n_faces(self) -> int:

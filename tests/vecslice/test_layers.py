@@ -176,3 +176,17 @@ def test_layer_heights_switches_to_the_adaptive_schedule():
     assert t.tolist() == [300, 200] + [190] * 8 and (z == p - 3000).all()
     assert p[-2] <= 2000 < p[-1]  # the last layer ends above the model
     assert len(z) != len(uniform[0])  # not the uniform schedule
+
+
+def test_from_arrays_knows_its_corner_range_without_a_gather():
+    """from_arrays drops unused vertices, so its vertex range is the corners'."""
+    rng = np.random.default_rng(5)
+    v = rng.integers(-5000, 5000, (40, 3))
+    f = rng.integers(0, 30, (25, 3))  # vertices 30..39 unused, dropped
+    m = vs.Mesh.from_arrays(v, f)
+    used = np.unique(m.faces)
+    assert m._zcorners == (int(m.vertices[used, 2].min()),
+                           int(m.vertices[used, 2].max()))
+    raw = vs.Mesh(v, f)
+    assert raw._corner_zrange() == (int(v[np.unique(f), 2].min()),
+                                    int(v[np.unique(f), 2].max()))
