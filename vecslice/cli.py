@@ -242,7 +242,8 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("file", type=Path, metavar="FILE",
                    help="saved .npz, or a mesh file to slice")
     v.add_argument("-o", "--output", type=Path, metavar="OUT.html",
-                   help="default: FILE's name with .html, in the current directory")
+                   help="an .html or .htm file (default: FILE's name with .html, "
+                   "in the current directory)")
     _add_slice_options(v)
     return p
 

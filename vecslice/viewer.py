@@ -173,14 +173,15 @@ def write_viewer(
     model : SlicedModel
         The sliced model.
     path : str or os.PathLike
-        The .html file to write (replaced if it exists).
+        The .html file to write (replaced if it exists; a FIFO, a device or a
+        read-only file is refused, see :func:`vecslice.npz.write_atomic`).
     title : str, default 'vecslice'
         The page's title.
 
     Raises
     ------
     StorageFileError
-        If the file cannot be written.
+        If the file cannot be written, is not a regular file or is read-only.
     """
     from vecslice.npz import check_path, write_atomic
 
