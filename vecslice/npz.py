@@ -328,10 +328,10 @@ def check_target(path: str, where: str | None = None) -> str:
                else "; vecslice replaces only regular files")
         )
     if not st.st_mode & 0o222 or not os.access(target, os.W_OK):
+        why = "read-only" if not st.st_mode & 0o222 else "not writable by you"
         raise StorageFileError(
-            f"{where}: it is read-only (mode "
-            f"{stat.S_IMODE(st.st_mode):04o}); make it writable or remove it to "
-            "replace it"
+            f"{where}: it is {why} (mode {stat.S_IMODE(st.st_mode):04o}); make it "
+            "writable or remove it to replace it"
         )
     return target
 
