@@ -110,17 +110,31 @@ class CompileNotice:
 
 
 def check_output(path: Path | None, suffixes: tuple[str, ...] = (),
-                 flag: str = "-o") -> Path | None:
+                 flag: str = "-o",
+                 inputs: tuple[Path | None, ...] = ()) -> Path | None:
     """Check, before any work, that ``path`` can be written.
+
+    An existing ``path`` is replaced only if it is a regular, writable file that
+    is none of the ``inputs`` (compared as files: ``./x.stl``, a symbolic or a
+    hard link to an input count as the input).
 
     Raises
     ------
     CliInputError
-        If ``path`` is a directory, its directory does not exist or cannot be
-        written, or its suffix is not one of ``suffixes`` (when given).
+        If ``path`` is one of ``inputs``, a directory, its directory does not
+        exist or cannot be written, or its suffix is not one of ``suffixes``
+        (when given).
+    vecslice.errors.StorageFileError
+        If ``path`` exists and is not a regular file (a FIFO, a device such as
+        ``/dev/null``, a socket) or is read-only.
     """
     if path is None:
         return None
+    for source in inputs:
+        if source is not None and _same_file(path, source):
+            raise CliInputError(f"{flag} '{path}' is the input file '{source}': "
+                                "vecslice never overwrites its input; choose "
+                                "another output name")
     if suffixes and path.suffix.lower() not in suffixes:
         raise CliInputError(f"{flag} must name a {' or '.join(suffixes)} file; "
                             f"got '{path}'")
@@ -135,7 +149,18 @@ def check_output(path: Path | None, suffixes: tuple[str, ...] = (),
     if not os.access(parent, os.W_OK | os.X_OK):
         raise CliInputError(f"{flag} '{path}': the directory '{parent}' is not "
                             "writable")
+    from vecslice.npz import check_target
+
+    check_target(str(path), where=f"{flag} '{path}'")
     return path
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether ``a`` and ``b`` are the same existing file (links followed)."""
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):  # one is missing (or unreadable): not the same
+        return False
 
 
 _LOADING = ("source", "faces_in", "vertices_in")

@@ -38,6 +38,7 @@ from vecslice.errors import VecsliceError
 __all__ = ["SLICE_OPTIONS", "Option", "main", "run"]
 
 COMMANDS = ("slice", "info", "preview", "view")
+VIEW_SUFFIXES = (".html", ".htm")  # what `view -o` may write: a web page
 INTERRUPTED = 130
 
 
@@ -241,7 +242,8 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("file", type=Path, metavar="FILE",
                    help="saved .npz, or a mesh file to slice")
     v.add_argument("-o", "--output", type=Path, metavar="OUT.html",
-                   help="default: FILE's name with .html, in the current directory")
+                   help="an .html or .htm file (default: FILE's name with .html, "
+                   "in the current directory)")
     _add_slice_options(v)
     return p
 
@@ -361,7 +363,7 @@ def _model_for(args: argparse.Namespace) -> tuple[Any, str]:
 def cmd_slice(args: argparse.Namespace) -> None:
     """``vecslice slice``."""
     settings = settings_from_args(args)
-    out = check_output(args.output)
+    out = check_output(args.output, inputs=(args.model,))
     t = time.perf_counter()
     mesh = _load(args.model, args, settings)
     model = _slice(mesh, args, settings, time.perf_counter() - t)
@@ -441,7 +443,7 @@ def _layer_for(model: Any, args: argparse.Namespace) -> int:
 
 def cmd_preview(args: argparse.Namespace) -> None:
     """``vecslice preview``."""
-    out = check_output(args.output, (".png", ".svg"))
+    out = check_output(args.output, (".png", ".svg"), inputs=(args.file,))
     if out is not None and out.suffix.lower() == ".png":
         from vecslice.plot import _matplotlib
 
@@ -465,7 +467,7 @@ def cmd_preview(args: argparse.Namespace) -> None:
 def cmd_view(args: argparse.Namespace) -> None:
     """``vecslice view``."""
     out = args.output if args.output is not None else Path(args.file.stem + ".html")
-    check_output(out)
+    check_output(out, VIEW_SUFFIXES, inputs=(args.file,))
     model, title = _model_for(args)
     from vecslice.npz import write_atomic
     from vecslice.viewer import viewer_html

@@ -4,9 +4,14 @@ Reading: the ``.npy`` header of every member is read first (a few hundred bytes
 inflated), so dtypes, shapes, sizes and compression ratios are checked before any
 array is inflated: a small hostile file cannot make vecslice allocate gigabytes.
 
+Both refuse what is not a regular file (a FIFO, a device, a socket) at once:
+reading one could block forever or never end, and replacing one (``/dev/null``
+as root) would damage the system.
+
 Writing: to a temporary file beside the target, renamed into place, removed on any
 failure, on Ctrl-C and on SIGTERM; symbolic links are written through, new files
-respect the umask and overwritten files keep their mode.
+respect the umask and overwritten files keep their mode. A read-only file is never
+replaced (as the shell's ``>`` and ``cp`` refuse it).
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ import math
 import os
 import secrets
 import signal
+import stat
 import struct
 import threading
 import tokenize
@@ -36,6 +42,8 @@ __all__ = [
     "MAX_RATIO",
     "Member",
     "check_path",
+    "check_target",
+    "file_kind",
     "open_archive",
     "read_array",
     "read_members",
@@ -85,27 +93,80 @@ def check_path(path: object, name: str = "path") -> str:
     return p
 
 
+def file_kind(mode: int) -> str:
+    """What a file of mode ``mode`` (``st_mode``) is: ``"a FIFO (named pipe)"``..."""
+    for test, kind in ((stat.S_ISDIR, "a directory"),
+                       (stat.S_ISFIFO, "a FIFO (named pipe)"),
+                       (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return kind
+    return "a regular file" if stat.S_ISREG(mode) else "not a regular file"
+
+
+def _check_regular(p: str, mode: int) -> None:
+    if stat.S_ISDIR(mode):
+        raise StorageFileError(f"{p!r} is a directory, not a saved vecslice model")
+    if not stat.S_ISREG(mode):
+        raise StorageFileError(
+            f"{p!r} is {file_kind(mode)}, not a regular file; a saved vecslice "
+            "model is a regular .npz file"
+        )
+
+
+class _OwnedZipFile(zipfile.ZipFile):
+    """A ZipFile reading an already opened file, which it closes with itself."""
+
+    def __init__(self, fh: IO[bytes]) -> None:
+        self._owned = fh
+        super().__init__(fh)
+
+    def close(self) -> None:
+        try:
+            super().close()
+        finally:
+            self._owned.close()
+
+
 def open_archive(p: str) -> zipfile.ZipFile:
-    """Open ``p`` as a zip archive, with clear errors for what is not one."""
+    """Open ``p`` as a zip archive, with clear errors for what is not one.
+
+    The file is opened without blocking and checked through its descriptor, so a
+    FIFO or a device (``/dev/zero``) is refused at once, whatever ``p`` links to.
+    """
+    fh = None
     try:
-        if not os.path.exists(p):
-            raise StorageFileError(f"{p!r} does not exist")
-        if os.path.isdir(p):
-            raise StorageFileError(f"{p!r} is a directory, not a saved vecslice model")
-        with open(p, "rb") as fh:
-            magic = fh.read(6)
+        try:
+            _check_regular(p, os.stat(p).st_mode)
+            # no blocking open: a FIFO swapped in after the stat must not hang
+            fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        except FileNotFoundError:
+            raise StorageFileError(f"{p!r} does not exist") from None
+        except PermissionError:
+            raise StorageFileError(f"cannot read {p!r}: permission denied") from None
+        fh = os.fdopen(fd, "rb")
+        _check_regular(p, os.fstat(fd).st_mode)
+        if hasattr(os, "set_blocking"):
+            os.set_blocking(fd, True)
+        magic = fh.read(6)
         if magic.startswith(b"\x93NUMPY"):
             raise StorageFileError(
                 f"{p!r} is a single .npy array, not an .npz written by "
                 "SlicedModel.save()"
             )
-        return zipfile.ZipFile(p)
+        fh.seek(0)
+        zf, fh = _OwnedZipFile(fh), None
+        return zf
     except _READ_ERRORS as exc:
         if isinstance(exc, StorageFileError):
             raise
         raise StorageFileError(
             f"{p!r} is not an .npz file written by SlicedModel.save() ({exc})"
         ) from None
+    finally:
+        if fh is not None:
+            fh.close()
 
 
 def read_members(
@@ -224,6 +285,57 @@ def _resolve(p: str) -> str:
     return os.path.realpath(p)
 
 
+def check_target(path: str, where: str | None = None) -> str:
+    """The file a write to ``path`` would replace, checked before writing anything.
+
+    Symbolic links are followed (see :func:`write_atomic`). A missing file is fine
+    (it is created); an existing one must be a regular file that is not read-only.
+
+    Parameters
+    ----------
+    path : str
+        The file to write.
+    where : str, optional
+        How messages name the file (e.g. ``"-o 'out.npz'"``); default
+        ``"cannot write '<path>'"``.
+
+    Returns
+    -------
+    str
+        The path to replace: ``path`` itself, or the file its links lead to.
+
+    Raises
+    ------
+    StorageFileError
+        If ``path`` is a symbolic link loop, a directory, not a regular file (a
+        FIFO, a device, a socket) or a read-only file: no write permission for
+        the caller, or none at all (so even root does not replace it). The
+        message names ``path`` and what it is.
+    """
+    where = where or f"cannot write {path!r}"
+    target = _resolve(path)
+    try:
+        st = os.stat(target)
+    except FileNotFoundError:
+        return target
+    except OSError as exc:
+        raise StorageFileError(f"{where}: {exc.strerror or exc}") from None
+    if not stat.S_ISREG(st.st_mode):
+        what = file_kind(st.st_mode)
+        raise StorageFileError(
+            f"{where}: it is {what}, not a regular file"
+            + ("; give a file name" if stat.S_ISDIR(st.st_mode)
+               else "; vecslice replaces only regular files")
+        )
+    if not st.st_mode & 0o222 or not os.access(target, os.W_OK):
+        why = "read-only" if not st.st_mode & 0o222 else "not writable by you"
+        raise StorageFileError(
+            f"{where}: it is {why} (mode {stat.S_IMODE(st.st_mode):04o}); make it "
+            "writable or remove it to replace it"
+        )
+    return target
+
+
 def _create_temp(target: str) -> tuple[int, str]:
     """A new hidden file beside ``target``: the umask applies, as for any new file."""
     head, tail = os.path.split(target)
@@ -273,20 +385,21 @@ def write_atomic(path: str, write: Callable[[IO[bytes]], None]) -> None:
     a symbolic link points to), which is renamed over the target once complete.
     On any error, Ctrl-C or SIGTERM the temporary file is removed (SIGTERM then
     terminates the process as it would have). A new file gets the permissions
-    ``0o666 & ~umask``; an overwritten file keeps its mode.
+    ``0o666 & ~umask``; an overwritten file keeps its mode. What is not a regular
+    file (a FIFO, a device such as ``/dev/null``, a socket) and a read-only file
+    are refused, never replaced (see :func:`check_target`).
 
     Raises
     ------
     StorageFileError
-        If the file cannot be written; the message names ``path``.
+        If the file cannot be written, or ``path`` is not a regular file or is
+        read-only; the message names ``path``.
     """
     tmp = None
     try:
         with _sigterm_raises():
             try:
-                target = _resolve(path)
-                if os.path.isdir(target):
-                    raise IsADirectoryError(errno.EISDIR, "is a directory", target)
+                target = check_target(path)
                 try:
                     mode: int | None = os.stat(target).st_mode & 0o777
                 except FileNotFoundError:

@@ -33,6 +33,7 @@ from vecslice.npz import (
 )
 from vecslice.paths import LayerPaths
 from vecslice.ragged import adopt, freeze, nested_offsets
+from vecslice.units import COORD_LIMIT
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "SlicedModel", "load_sliced"]
 
@@ -59,6 +60,41 @@ def _layer_offsets(
             f"got {lo.shape[0]}"
         )
     return lo
+
+
+def _check_schedule(
+    slice_z: NDArray[np.int64], print_z: NDArray[np.int64],
+    thickness: NDArray[np.int64],
+) -> None:
+    """The layer schedule's values: within the coordinate limit, layers stacked.
+
+    Every schedule vecslice makes (SLICING.md §1, ADAPTIVE.md §5) has
+    ``print_z[n] = print_z[n - 1] + thickness[n]`` with ``thickness > 0``: the
+    tops strictly increase, no two layers share a height.
+    """
+    for name, a in (("slice_z", slice_z), ("print_z", print_z)):
+        bad = np.flatnonzero((a >= COORD_LIMIT) | (a <= -COORD_LIMIT))
+        if bad.size:
+            i = int(bad[0])
+            raise InputValueError(
+                f"`{name}` must satisfy |value| < 2**30 µm (about 1 km); got "
+                f"{int(a[i])} at layer {i}"
+            )
+    bad = np.flatnonzero((thickness <= 0) | (thickness >= COORD_LIMIT))
+    if bad.size:
+        i = int(bad[0])
+        raise InputValueError(
+            f"`thickness` must be > 0 and < 2**30 µm; got {int(thickness[i])} at "
+            f"layer {i}"
+        )
+    bad = np.flatnonzero(np.diff(print_z) <= 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise InputValueError(
+            f"`print_z` must increase from layer to layer (each layer above the "
+            f"one before); got {int(print_z[i])} at layer {i} after "
+            f"{int(print_z[i - 1])} at layer {i - 1}"
+        )
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -91,6 +127,11 @@ class SlicedModel(PartsLayout):
         If an offsets array is invalid, the per-layer arrays disagree on ``L``, a
         part has no ring, a ring fewer than 3 vertices, an outline is not CCW
         (positive area) or a hole not CW.
+    InputValueError
+        If a ``slice_z`` or ``print_z`` value reaches 2**30 µm in magnitude, a
+        ``thickness`` is not in 1 .. 2**30 - 1 µm, or ``print_z`` does not
+        strictly increase (layers are stacked: no two share a height). The
+        message names the field, the layer and the value.
 
     Examples
     --------
@@ -161,6 +202,7 @@ class SlicedModel(PartsLayout):
                     f"`{name}` must have length {n} (one per layer, as `slice_z`); "
                     f"got {v[name].shape[0]}"
                 )
+        _check_schedule(v["slice_z"], v["print_z"], v["thickness"])
         v["coords"], v["ring_offsets"], v["part_offsets"] = nested_offsets(
             coords, [("ring_offsets", ring_offsets), ("part_offsets", part_offsets)]
         )
@@ -252,7 +294,11 @@ class SlicedModel(PartsLayout):
         no partial file. ``path`` is used as given (no ``.npz`` is appended); a
         symbolic link is written through (the file it points to is replaced). A
         new file gets the permissions ``0o666 & ~umask``; an overwritten file keeps
-        its mode.
+        its mode. Only a regular file is ever replaced: a FIFO, a device (such as
+        ``/dev/null``) or a socket is refused, and so is a read-only file (no write
+        permission for the caller, or none at all, so that even root does not
+        replace it), as the shell's ``>`` would refuse it: make it writable or
+        remove it first.
 
         Parameters
         ----------
@@ -269,7 +315,7 @@ class SlicedModel(PartsLayout):
             If ``path`` is empty.
         StorageFileError
             If the file cannot be written (e.g. its directory does not exist, it is
-            a directory or a symbolic link loop).
+            a directory, a symbolic link loop, not a regular file or read-only).
         """
         compress = check_bool(compress, "compress")
         p = check_path(path)
@@ -318,10 +364,12 @@ def load_sliced(
     InputTypeError, InputValueError
         If ``path`` is not a path or empty, or ``max_bytes`` not an int >= 0.
     StorageFileError
-        If ``path`` is missing, a directory, not an .npz archive, not a vecslice
-        model, of a newer format version, too large, damaged, or holds arrays of
-        the wrong dtype, shape or layout (such as a clockwise outline or a ring of
-        fewer than 3 vertices). The message names the path.
+        If ``path`` is missing, unreadable (permission denied), a directory, not
+        a regular file (a FIFO or a device, refused at once, never read), not an
+        .npz archive, not a vecslice model, of a newer format version, too large,
+        damaged, or holds arrays of the wrong dtype, shape or layout (such as a
+        clockwise outline, a ring of fewer than 3 vertices, a thickness <= 0 or
+        ``print_z`` not increasing). The message names the path.
 
     Examples
     --------

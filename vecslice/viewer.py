@@ -14,6 +14,7 @@ import base64
 import html
 import json
 import os
+import re
 import zlib
 from importlib import resources
 from typing import Any
@@ -24,6 +25,7 @@ from numpy.typing import NDArray
 __all__ = ["varint_encode", "viewer_html", "write_viewer"]
 
 _LIMIT = 2**52  # varints are decoded into JavaScript doubles: stay exact
+_PLACEHOLDER = re.compile(r"\{\{(TITLE|META|DATA)\}\}")  # in viewer.html
 
 
 def varint_encode(values: NDArray[np.int64]) -> bytes:
@@ -153,9 +155,9 @@ def viewer_html(model: Any, *, title: str = "vecslice") -> str:
     template = resources.files("vecslice").joinpath("viewer.html").read_text("utf-8")
     # "</" cannot appear inside the JSON's <script> element
     meta_text = json.dumps(meta, separators=(",", ":")).replace("</", "<\\/")
-    return (template.replace("{{TITLE}}", html.escape(title))
-            .replace("{{META}}", meta_text)
-            .replace("{{DATA}}", data))
+    values = {"TITLE": html.escape(title), "META": meta_text, "DATA": data}
+    # one pass over the template: a title holding "{{META}}" stays text
+    return _PLACEHOLDER.sub(lambda m: values[m.group(1)], template)
 
 
 def write_viewer(
@@ -171,14 +173,15 @@ def write_viewer(
     model : SlicedModel
         The sliced model.
     path : str or os.PathLike
-        The .html file to write (replaced if it exists).
+        The .html file to write (replaced if it exists; a FIFO, a device or a
+        read-only file is refused, see :func:`vecslice.npz.write_atomic`).
     title : str, default 'vecslice'
         The page's title.
 
     Raises
     ------
     StorageFileError
-        If the file cannot be written.
+        If the file cannot be written, is not a regular file or is read-only.
     """
     from vecslice.npz import check_path, write_atomic
 

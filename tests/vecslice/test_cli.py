@@ -1,6 +1,7 @@
 """The ``vecslice`` command, run as a subprocess the way a user runs it."""
 
 import os
+import stat
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -302,6 +303,88 @@ def test_output_is_checked_before_slicing(tmp_path, target):
     assert p.stdout == ""  # not even loaded
     assert sorted(f.name for f in tmp_path.iterdir()) == ["adir", "file.txt"]
     assert list((tmp_path / "adir").iterdir()) == []
+
+
+def _box_and_model(tmp_path):
+    """``x.stl`` (a 10 mm cube) and ``m.npz`` (the demo model) in ``tmp_path``."""
+    import trimesh
+
+    trimesh.creation.box((10, 10, 10)).export(tmp_path / "x.stl")
+    vs.slice_mesh(vs.demo_mesh()).save(tmp_path / "m.npz")
+    return {n: (tmp_path / n).read_bytes() for n in ("x.stl", "m.npz")}
+
+
+@pytest.mark.parametrize(("args", "out", "source"), [
+    (["x.stl", "-o", "x.stl"], "x.stl", "x.stl"),
+    (["slice", "./x.stl", "-o", "x.stl"], "x.stl", "x.stl"),  # pathlib drops ./
+    (["slice", "x.stl", "-o", "../{here}/x.stl"], "../{here}/x.stl", "x.stl"),
+    (["x.stl", "-o", "hard.npz"], "hard.npz", "x.stl"),
+    (["x.stl", "-o", "soft.npz"], "soft.npz", "x.stl"),
+    (["view", "m.npz", "-o", "m.npz"], "m.npz", "m.npz"),
+    (["view", "x.stl", "-o", "x.stl"], "x.stl", "x.stl"),
+    (["view", "m.npz", "-o", "page.html"], "page.html", "m.npz"),
+    (["preview", "m.npz", "--layer", "0", "-o", "pic.svg"], "pic.svg", "m.npz"),
+    (["preview", "x.stl", "--layer", "0", "-o", "pic.png"], "pic.png", "x.stl"),
+])  # fmt: skip
+def test_output_never_overwrites_the_input(tmp_path, args, out, source):
+    """Audit s23 D3: ``-o`` naming the input (or a link to it) destroyed it."""
+    before = _box_and_model(tmp_path)
+    os.link(tmp_path / "x.stl", tmp_path / "hard.npz")
+    (tmp_path / "soft.npz").symlink_to("x.stl")
+    target = "m.npz" if "m.npz" in args else "x.stl"
+    for name in ("page.html", "pic.svg", "pic.png"):
+        (tmp_path / name).symlink_to(target)
+    args = [a.replace("{here}", tmp_path.name) for a in args]
+    out = out.replace("{here}", tmp_path.name)
+    p = run_cli(*args, cwd=tmp_path)
+    _only_error_line(p, f"-o '{out}' is the input file '{source}': vecslice never "
+                     "overwrites its input")
+    assert p.stdout == ""  # refused before any work
+    assert {n: (tmp_path / n).read_bytes() for n in before} == before
+    assert len(os.listdir(tmp_path)) == 7  # no temporary file
+
+
+def test_view_output_must_be_a_web_page(tmp_path):
+    """Audit s23 D3: ``view -o`` had no suffix check (``preview -o`` has one)."""
+    _box_and_model(tmp_path)
+    (tmp_path / "old.npz").write_bytes(b"another model")
+    p = run_cli("view", "m.npz", "-o", "old.npz", cwd=tmp_path)
+    _only_error_line(p, "-o must name a .html or .htm file; got 'old.npz'")
+    assert (tmp_path / "old.npz").read_bytes() == b"another model"
+    p = run_cli("view", "m.npz", "-o", "page.HTM", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "page.HTM").read_text().startswith("<!doctype html>")
+
+
+@pytest.mark.parametrize("command", ["slice", "view", "preview"])
+def test_output_onto_a_fifo_or_read_only_file_is_refused(tmp_path, command):
+    """Audit s23 D4, D13: ``-o`` replaced a FIFO (or a device) by a regular file,
+    and silently replaced a read-only file."""
+    _box_and_model(tmp_path)
+    suffix = {"slice": ".npz", "view": ".html", "preview": ".svg"}[command]
+    fifo, ro = tmp_path / f"fifo{suffix}", tmp_path / f"ro{suffix}"
+    os.mkfifo(fifo)
+    ro.write_bytes(b"keep")
+    ro.chmod(0o444)
+    extra = ["--layer", "0"] if command == "preview" else []
+    for out, fragment in ((fifo, "it is a FIFO (named pipe), not a regular file"),
+                          (ro, "it is read-only (mode 0444)")):
+        p = run_cli(command, "x.stl", *extra, "-o", out.name, cwd=tmp_path,
+                    timeout=60)
+        _only_error_line(p, f"-o '{out.name}': {fragment}")
+        assert p.stdout == ""  # before any work
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode) and ro.read_bytes() == b"keep"
+    assert len(os.listdir(tmp_path)) == 4
+
+
+def test_info_on_a_fifo_or_device_does_not_hang(tmp_path):
+    """Audit s23 D5: ``vecslice info fifo.npz`` blocked forever."""
+    os.mkfifo(tmp_path / "fifo.npz")
+    (tmp_path / "zero.npz").symlink_to("/dev/zero")
+    for name, kind in (("fifo.npz", "a FIFO (named pipe)"),
+                       ("zero.npz", "a character device")):
+        p = run_cli("info", name, cwd=tmp_path, timeout=60)
+        _only_error_line(p, f"'{name}' is {kind}, not a regular file")
 
 
 def test_preview_errors(tmp_path):

@@ -97,3 +97,29 @@ def test_check_output(tmp_path):
             check_output(bad)
     with pytest.raises(vs.InputValueError, match=r"-o must name a .png or .svg"):
         check_output(tmp_path / "a.jpg", (".png", ".svg"))
+
+
+def test_check_output_refuses_the_input_and_special_files(tmp_path):
+    """Audit s23 D3, D4: ``-o`` could name the input, a FIFO or a device."""
+    import os
+
+    src = tmp_path / "x.stl"
+    src.write_text("solid")
+    (tmp_path / "soft.npz").symlink_to(src)
+    os.link(src, tmp_path / "hard.npz")
+    for out in (src, tmp_path / "soft.npz", tmp_path / "hard.npz",
+                tmp_path / "." / "x.stl"):
+        with pytest.raises(CliInputError,
+                           match=f"-o '{out}' is the input file '{src}'"):
+            check_output(out, inputs=(None, src))
+    assert check_output(tmp_path / "new.npz", inputs=(src,)) == tmp_path / "new.npz"
+    assert check_output(src) == src  # no inputs given: a writable regular file
+    os.mkfifo(tmp_path / "fifo.npz")
+    with pytest.raises(vs.StorageFileError,
+                       match=r"-o '.*fifo\.npz': it is a FIFO \(named pipe\)"):
+        check_output(tmp_path / "fifo.npz")
+    with pytest.raises(OSError, match="it is a character device"):
+        check_output(Path("/dev/null"))  # refused, never written
+    src.chmod(0o444)
+    with pytest.raises(vs.StorageFileError, match=r"it is read-only \(mode 0444\)"):
+        check_output(src)

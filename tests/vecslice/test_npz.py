@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import io
 import os
+import re
+import shutil
 import signal
 import stat
 import subprocess
@@ -388,3 +390,108 @@ def test_damaged_files_always_raise_storage_file_error(tmp_path):
         except StorageFileError:
             continue
         assert back.layer_areas().tolist() == model.layer_areas().tolist()
+
+
+# --- special files: never read, never replaced (audit s23 D4, D5, D13) ---------
+
+# run in a child process, so that a regression (a read that blocks on a FIFO or
+# never ends on /dev/zero) fails the test instead of hanging the suite
+SPECIAL_CHILD = r"""
+import resource, sys
+resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))
+import vecslice as vs
+try:
+    vs.load_sliced(sys.argv[1])
+except vs.StorageFileError as exc:
+    print("refused:", exc)
+"""
+
+
+def _load_in_child(path, prefix=()):
+    return subprocess.run(
+        [*prefix, sys.executable, "-c", SPECIAL_CHILD, str(path)],
+        capture_output=True, text=True, timeout=60, check=False,
+    )
+
+
+def _char_device(path):
+    """A private copy of /dev/null at ``path`` (needs root), else None."""
+    try:
+        os.mknod(path, 0o644 | stat.S_IFCHR, os.makedev(1, 3))
+    except (PermissionError, AttributeError):
+        return None
+    return path
+
+
+@pytest.mark.parametrize(("make", "kind"), [
+    (lambda p: os.mkfifo(p) or p, "is a FIFO \\(named pipe\\), not a regular file"),
+    (lambda p: os.symlink("/dev/zero", p) or p,
+     "is a character device, not a regular file"),
+])  # fmt: skip
+def test_load_refuses_fifos_and_devices_at_once(tmp_path, make, kind):
+    """Audit s23 D5: a FIFO blocked forever, /dev/zero gave a raw MemoryError."""
+    path = make(tmp_path / "m.npz")
+    proc = _load_in_child(path)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.startswith("refused: "), proc.stdout
+    assert re.search(f"'{re.escape(str(path))}' {kind}", proc.stdout), proc.stdout
+    with pytest.raises(StorageFileError, match=kind) as info:  # in process, too
+        load_sliced(path)
+    assert isinstance(info.value, OSError)
+
+
+def test_unreadable_file_says_permission_denied(tmp_path):
+    """Audit s23 D13: "is not an .npz file written by ... (Permission denied)"."""
+    path = tmp_path / "m.npz"
+    square_model().save(path)
+    os.chmod(path, 0)
+    prefix = ()
+    if os.geteuid() == 0:  # root reads anything: drop its capabilities
+        if not shutil.which("setpriv"):
+            pytest.skip("running as root without setpriv")
+        prefix = ("setpriv", "--bounding-set=-all", "--inh-caps=-all")
+    proc = _load_in_child(path, prefix)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.strip() == f"refused: cannot read '{path}': permission denied"
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device"])
+def test_save_never_replaces_a_fifo_or_a_device(tmp_path, kind):
+    """Audit s23 D4: save() onto a FIFO or a device replaced it by a regular file."""
+    path = tmp_path / "out.npz"
+    if kind == "fifo":
+        os.mkfifo(path)
+        fragment = "it is a FIFO \\(named pipe\\), not a regular file"
+    elif _char_device(path) is None:
+        pytest.skip("creating a device needs root")
+    else:
+        fragment = "it is a character device, not a regular file"
+    link = tmp_path / "link.npz"
+    link.symlink_to(path)
+    for target in (path, link):
+        with pytest.raises(StorageFileError, match=fragment) as info:
+            square_model().save(target)
+        assert isinstance(info.value, OSError) and str(target) in str(info.value)
+    mode = os.lstat(path).st_mode
+    assert (stat.S_ISFIFO if kind == "fifo" else stat.S_ISCHR)(mode)
+    assert sorted(os.listdir(tmp_path)) == ["link.npz", "out.npz"]  # no temp file
+
+
+def test_save_refuses_a_read_only_file(tmp_path, umask):
+    """Audit s23 D13: a 0444 file was silently replaced (even for a non-root user,
+    since the rename needs only the directory's permission)."""
+    path = tmp_path / "m.npz"
+    path.write_bytes(b"keep me")
+    for mode in (0o444, 0o400, 0o000):
+        os.chmod(path, mode)
+        with pytest.raises(StorageFileError,
+                           match=f"'{re.escape(str(path))}': it is read-only "
+                                 f"\\(mode {mode:04o}\\); make it writable"):
+            square_model().save(path)
+        assert path.read_bytes() == b"keep me"
+        assert stat.S_IMODE(os.stat(path).st_mode) == mode
+    assert os.listdir(tmp_path) == ["m.npz"]
+    os.chmod(path, 0o644)  # writable again: replaced, mode kept
+    square_model().save(path)
+    assert load_sliced(path).n_parts == 1
+    assert stat.S_IMODE(os.stat(path).st_mode) == 0o644

@@ -9,7 +9,13 @@ import pytest
 import shapely
 import trimesh
 
-from vecslice import InputTypeError, LayerPaths, LayoutError, StorageFileError
+from vecslice import (
+    InputTypeError,
+    InputValueError,
+    LayerPaths,
+    LayoutError,
+    StorageFileError,
+)
 from vecslice.layerparts import LayerParts
 from vecslice.parts import make_parts
 from vecslice.storage import FORMAT, SlicedModel, load_sliced
@@ -360,3 +366,62 @@ def test_format_and_version_fields_must_be_scalars(model, tmp_path, change, frag
     path = _npz(tmp_path / "v.npz", **(_good(model) | change))
     with pytest.raises(StorageFileError, match=fragment):
         load_sliced(path)
+
+
+@pytest.mark.parametrize(
+    ("schedule", "fragment"),
+    [
+        # audit s23 D10 / api D14: all of these loaded silently
+        ({"slice_z": [100, 2**30]},
+         r"`slice_z` must satisfy \|value\| < 2\*\*30 µm .*got 1073741824 at layer 1"),
+        ({"slice_z": [-(2**62), 100]}, r"`slice_z` .* got -4611686018427387904 at "
+                                       "layer 0"),
+        ({"print_z": [200, 2**50]}, r"`print_z` .* got 1125899906842624 at layer 1"),
+        ({"thickness": [-5, 100]}, r"`thickness` must be > 0 and < 2\*\*30 µm; got -5 "
+                                   "at layer 0"),
+        ({"thickness": [200, 0]}, "`thickness` .* got 0 at layer 1"),
+        ({"thickness": [200, 2**30]}, "`thickness` .* got 1073741824 at layer 1"),
+        ({"print_z": [300, 200]}, r"`print_z` must increase from layer to layer .*"
+                                  "got 200 at layer 1 after 300 at layer 0"),
+        # two layers at one height: no schedule vecslice makes has them
+        ({"print_z": [200, 200]}, "got 200 at layer 1 after 200 at layer 0"),
+    ],
+)  # fmt: skip
+def test_layer_schedule_is_validated(tmp_path, schedule, fragment):
+    layout = {"slice_z": [100, 250], "print_z": [200, 300], "thickness": [200, 100],
+              "layer_offsets": [0, 1, 1], "part_offsets": [0, 1],
+              "ring_offsets": [0, 4], "coords": SQ} | schedule  # fmt: skip
+    with pytest.raises(InputValueError, match=fragment):
+        SlicedModel(*(layout[k] for k in FIELDS[:7]))
+    good = SlicedModel([100, 250], [200, 300], [200, 100], [0, 1, 1], [0, 1], [0, 4],
+                       SQ)
+    arrays = _good(good) | {k: np.asarray(v, np.int64) for k, v in schedule.items()}
+    path = _npz(tmp_path / "bad.npz", **arrays)
+    with pytest.raises(StorageFileError,
+                       match="holds an invalid vecslice model: .*" + fragment):
+        load_sliced(path)
+
+
+def test_every_schedule_vecslice_makes_is_a_valid_model(tmp_path):
+    """The schedule checks accept what slicing produces: uniform in every
+    tolerance mode, adaptive, Cura compatibility, negative mesh heights."""
+    from vecslice import SliceSettings, demo_mesh, load_mesh, slice_mesh
+
+    mesh = demo_mesh()
+    low = trimesh.creation.box((20, 20, 8))
+    low.apply_translation((0, 0, -20))  # entirely below z = 0
+    for m, settings in [
+        (mesh, SliceSettings(slicing_tolerance="middle")),
+        (mesh, SliceSettings(slicing_tolerance="inclusive")),
+        (mesh, SliceSettings(slicing_tolerance="exclusive", layer_height=400,
+                             initial_layer_height=100)),
+        (mesh, SliceSettings(adaptive_layers=True)),
+        (mesh, SliceSettings(compat="cura")),
+        (load_mesh(low), SliceSettings()),
+    ]:
+        model = slice_mesh(m, settings)
+        assert model.n_layers > 10
+        assert (np.diff(model.print_z) > 0).all() and (model.thickness > 0).all()
+        model.save(tmp_path / "m.npz")
+        assert load_sliced(tmp_path / "m.npz").print_z.tolist() == \
+            model.print_z.tolist()

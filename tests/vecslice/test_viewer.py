@@ -1,6 +1,7 @@
 """The layer viewer: its data round-trip exactly, and it works in a real browser."""
 
 import base64
+import html
 import json
 import os
 import re
@@ -102,6 +103,26 @@ def test_page_is_self_contained_and_escapes_the_title():
     assert page.count("</script>") == 3  # meta, data, the viewer's script
     assert not re.search(r"""(src|href)\s*=\s*["']?(https?:)?//""", page)
     assert "fetch(" not in page and "XMLHttpRequest" not in page
+
+
+@pytest.mark.parametrize("title", [
+    "{{META}}<img src=x onerror=alert(1)>.npz", "{{DATA}}", "{{TITLE}}{{META}}",
+])  # fmt: skip
+def test_placeholders_in_the_title_stay_text(title):
+    """Audit s23 D13: a title holding ``{{META}}`` got the meta JSON (with the raw,
+    unescaped title) pasted into the page's <title>."""
+    model = vs.SlicedModel([100], [200], [200], [0, 1], [0, 1], [0, 4],
+                           [[0, 0], [10, 0], [10, 10], [0, 10]])
+    page = viewer_html(model, title=title)
+    head = re.search(r"<title>(.*?)</title>", page, re.S).group(1)
+    assert head == f"{html.escape(title)} - vecslice layer viewer"
+    assert page.count("</script>") == 3
+    # raw markup only as JSON text inside the meta <script>, never in the HTML
+    outside = re.sub(r'(id="vecslice-meta" type="application/json">).*?</script>',
+                     "", page, flags=re.S)
+    assert "<img" not in outside and "{{" not in outside.replace(head, "")
+    meta, data = embedded(page)
+    assert meta["title"] == title and data["coords"].size == 8
 
 
 def test_bad_arguments(tmp_path):
