@@ -23,7 +23,6 @@ model's ``unit`` is applied: vertices come out in millimetres.
 
 from __future__ import annotations
 
-import io
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,7 +36,7 @@ from vecslice.errors import MeshFileError
 from vecslice.meshfile import _numbers
 
 if TYPE_CHECKING:
-    from lxml import etree
+    pass
 
 __all__ = ["MAX_BUILD_TRIANGLES", "MAX_BUILD_VERTICES", "MAX_COMPRESSION_RATIO",
            "MAX_INSTANCES", "MAX_MODEL_BYTES", "UNITS", "read_3mf"]
