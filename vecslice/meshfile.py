@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vecslice.errors import MeshFileError, VecsliceError
+from vecslice.errors import InputValueError, MeshFileError, VecsliceError
 
 if TYPE_CHECKING:
     import trimesh
@@ -503,6 +503,12 @@ def _scene_arrays(scene: trimesh.Scene) -> tuple[NDArray[np.float64], NDArray[An
         t = np.asarray(transform, dtype=np.float64)
         v = v @ t[:3, :3].T + t[:3, 3]
         f = np.asarray(geom.faces, dtype=np.int64)
+        bad = np.flatnonzero((f < 0) | (f >= v.shape[0]))
+        if bad.size:  # would index another geometry's vertices once offset
+            i = int(bad[0])
+            raise InputValueError(
+                f"`faces` of scene geometry {name!r} must index its vertices in "
+                f"[0, {v.shape[0]}); got {int(f.reshape(-1)[i])} at face {i // 3}")
         if np.linalg.det(t[:3, :3]) < 0:  # a mirror turns the winding inside out
             f = f[:, ::-1]
         verts.append(v)
