@@ -299,9 +299,8 @@ def load_mesh_cura(source: Any, scale: float) -> Any:
     """
     import trimesh
 
-    from vecslice.meshfile import _check_path, _scene_arrays
-
     from vecslice.mesh import _as_faces
+    from vecslice.meshfile import _check_path, _scene_arrays
 
     if isinstance(source, trimesh.Trimesh):
         name = "trimesh.Trimesh"
