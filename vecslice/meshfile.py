@@ -150,7 +150,9 @@ def read_mesh_file(path: Path) -> Arrays:
             f"cannot read '{path}' as {ext.upper()}: {type(exc).__name__}: {exc}"
         ) from exc
     if f.shape[0] == 0:
-        raise MeshFileError(f"'{path}' holds no triangles")
+        with open(path, "rb") as fh:
+            hint = _utf16_hint(fh.read(512))
+        raise MeshFileError(f"'{path}' holds no triangles{hint}")
     if f.shape[0] > MAX_TRIANGLES:
         raise _too_many(path, f.shape[0])
     bad = np.flatnonzero(((f < 0) | (f >= v.shape[0])).any(axis=1))
@@ -185,9 +187,22 @@ _STL_LOOP = re.compile(rb"outer[ \t]+loop")
 _TEXT = re.compile(rb"[^\t\n\r\x20-\x7e]")
 
 
+def _utf16_hint(data: bytes) -> str:
+    """A hint for text saved as UTF-16 (a BOM or NUL in every other byte)."""
+    head = data[: len(data[:512]) & ~1]
+    for text, nul in ((head[0::2], head[1::2]), (head[1::2], head[0::2])):
+        # ASCII text in UTF-16: every other byte NUL, the others printable
+        if (head[:2] in (b"\xff\xfe", b"\xfe\xff") or len(head) >= 8
+                and not nul.strip(b"\0") and not _TEXT.search(text)):
+            return " (it looks like UTF-16 text; save it as ASCII or UTF-8)"
+    return ""
+
+
 def _stl_hint(data: bytes) -> str:
     """Why bytes are no STL, guessed from the first 512."""
     size = len(data)
+    if _utf16_hint(data):
+        return _utf16_hint(data)
     if not _TEXT.search(data[:512]):
         return " (ASCII STL without a complete 'solid ... endsolid' block: truncated?)"
     if size < 84:
@@ -234,13 +249,21 @@ def _read_stl_ascii(path: Path, data: bytes) -> Arrays:
 def _floats(
     path: Path, rows: list[tuple[bytes, ...]], what: str
 ) -> NDArray[np.float64]:
-    """(N, 3) float64 from tuples of byte strings; names the first bad number."""
+    """(N, 3) float64 from tuples of byte strings; names the first bad number.
+
+    Python's float syntax allows ``1_0`` (10); a mesh file's numbers do not.
+    """
     try:
-        return np.array(rows, dtype=np.bytes_).reshape(-1, 3).astype(np.float64)
+        a = np.array(rows, dtype=np.bytes_)
+        if b"_" in a.tobytes():
+            raise ValueError("an underscore")
+        return a.reshape(-1, 3).astype(np.float64)
     except ValueError:
         for k, row in enumerate(rows):
             for tok in row:
                 try:
+                    if b"_" in tok:
+                        raise ValueError(tok)
                     float(tok)
                 except ValueError:
                     raise MeshFileError(
@@ -317,7 +340,7 @@ def _read_obj(path: Path, size: int) -> Arrays:
         body = _OBJ_SLASH.sub(b"", body)
     # tokens per face line: a token starts where a non-blank follows a blank
     c = np.frombuffer(body, dtype=np.uint8)
-    blank = (c == 32) | (c == 9) | (c == 10) | (c == 13)
+    blank = (c == 32) | ((c >= 9) & (c <= 13))  # C isspace(), as numpy parses
     start = ~blank & np.concatenate([[True], blank[:-1]])
     counts = np.bincount(np.cumsum(c == 10)[start], minlength=len(bodies))
     short = np.flatnonzero(counts < 3)
@@ -329,7 +352,7 @@ def _read_obj(path: Path, size: int) -> Arrays:
     face_of = np.repeat(np.arange(len(bodies)), counts)
     if idx is None:
         toks = body.split()
-        k = next(i for i, t in enumerate(toks) if not _INT.fullmatch(t))
+        k = next((i for i, t in enumerate(toks) if not _INT.fullmatch(t)), 0)
         raise MeshFileError(
             f"'{path}' is corrupt: {_obj_face(data, int(face_of[k]))} has vertex "
             f"index {toks[k].decode('latin-1')!r}; expected an integer")
@@ -379,7 +402,7 @@ _PLY_INTS = {"char", "uchar", "int8", "uint8", "short", "ushort", "int16", "uint
 
 
 def _rows(body: bytes) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Tokens per non-blank line of ``body`` and those lines' 0-based numbers.
+    r"""Tokens per non-blank line of ``body`` and those lines' 0-based numbers.
 
     Lines end at ``\n``; blanks are space, tab, ``\r``, ``\v`` and ``\f``.
     """
@@ -456,8 +479,8 @@ def _ply_header(path: Path, data: bytes) -> bytes:
     """
     end = re.search(rb"end_header[ \t]*\r?\n", data[: 1 << 20])
     if not data.startswith(b"ply") or end is None:
-        raise MeshFileError(
-            f"'{path}' is not a PLY file: no 'ply ... end_header' header")
+        raise MeshFileError(f"'{path}' is not a PLY file: no 'ply ... end_header' "
+                            f"header{_utf16_hint(data)}")
     lines = data[: end.end()].decode("latin-1").splitlines()
     fmt = next((ln.split() for ln in lines if ln.startswith("format")), ["", ""])
     binary = fmt[1].startswith("binary")
@@ -534,7 +557,7 @@ def _off_header(path: Path, data: bytes) -> bytes:
     m = _OFF_COUNTS.match(text)
     if m is None:
         raise MeshFileError(f"'{path}' is not an OFF file: no 'OFF' line followed "
-                            "by the vertex and face counts")
+                            f"by the vertex and face counts{_utf16_hint(data)}")
     nv, nf = int(m.group(1)), int(m.group(2))
     if nf > MAX_TRIANGLES:
         raise _too_many(path, nf, "faces")

@@ -355,8 +355,8 @@ def test_ascii_ply_and_off_counts_match_the_body(tmp_path):
                                                 + TET_F)),
             r"word\.ply' is corrupt: 'ten' where a number should be")
     off = "OFF\n4 4 0\n" + TET_V + TET_F
-    for label, text in [("ok", off), ("commented", "# made by hand\n# two lines\n"
-                                                   + off.replace("\n3 0 2", " # c\n3 0 2"))]:
+    commented = "# by hand\n# two lines\n" + off.replace("\n3 0 2", " # c\n3 0 2")
+    for label, text in [("ok", off), ("commented", commented)]:
         m = vs.load_mesh(write(tmp_path, f"{label}.off", text), repair=False)
         assert m.n_faces == 4 and m.is_watertight, label
     refused(write(tmp_path, "cut.off", "# c\n" + off[:-8]),
@@ -447,3 +447,34 @@ def test_scale_that_collapses_every_face_is_named(tmp_path):
     p = write(tmp_path, "tiny.obj", V3 + "f 1 2 3\n")
     refused(p, r"tiny\.obj': .* all 1 faces have two corners at the same position at "
             r"scale 0\.0001 \(file units to mm\): is the scale right\?", scale=1e-4)
+
+
+def test_ascii_stl_and_obj_numbers_with_underscores_are_refused(tmp_path):
+    # audit s23 D12: Python's float() read '1_0' as 10
+    refused(write(tmp_path, "u.stl", TRI_STL.replace(b"vertex 1 0 0", b"vertex 1_0 0 0")
+                  % (b"x", b"x")), r"u\.stl' is corrupt: vertex 2 has '1_0' where a "
+            r"number should be")
+    refused(write(tmp_path, "u.obj", "v 0 0 0\nv 1_0 0 0\nv 0 1 0\nf 1 2 3\n"),
+            r"u\.obj' is corrupt: vertex 2 has '1_0' where a number should be")
+
+
+@pytest.mark.parametrize("sep", ["\v", "\f"])
+def test_obj_face_with_other_whitespace_separates_indices(tmp_path, sep):
+    # audit s23 D13: "cannot read ... as OBJ: StopIteration: "
+    m = vs.load_mesh(write(tmp_path, "w.obj", f"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+                           f"f 1 2{sep}4 3\n"), repair=False)
+    assert m.n_faces == 2
+
+
+@pytest.mark.parametrize(("ext", "text"), [
+    ("stl", TRI_STL.decode() % ("x", "x")),
+    ("obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+    ("ply", "ply\nformat ascii 1.0\nelement vertex 0\nend_header\n"),
+    ("off", "OFF\n0 0 0\n"),
+])
+@pytest.mark.parametrize("codec", ["utf-16", "utf-16-le"])
+def test_utf16_text_is_named(tmp_path, ext, text, codec):
+    # audit s23 D13: a UTF-16 STL reported a binary header's count
+    refused(write(tmp_path, f"t.{ext}", text.encode(codec)),
+            r"t\." + ext + r"' .*\(it looks like UTF-16 text; save it as ASCII or "
+            r"UTF-8\)")
