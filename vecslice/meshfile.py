@@ -192,8 +192,8 @@ def _utf16_hint(data: bytes) -> str:
     head = data[: len(data[:512]) & ~1]
     for text, nul in ((head[0::2], head[1::2]), (head[1::2], head[0::2])):
         # ASCII text in UTF-16: every other byte NUL, the others printable
-        if (head[:2] in (b"\xff\xfe", b"\xfe\xff") or len(head) >= 8
-                and not nul.strip(b"\0") and not _TEXT.search(text)):
+        if (head[:2] in (b"\xff\xfe", b"\xfe\xff") or (len(head) >= 8
+                and not nul.strip(b"\0") and not _TEXT.search(text))):
             return " (it looks like UTF-16 text; save it as ASCII or UTF-8)"
     return ""
 
