@@ -19,19 +19,6 @@ FLAT = math.fmod(math.fmod(math.pi, TAU) + TAU, TAU)  # == math.pi
 DBL_MAX = 1.7976931348623157e308
 
 
-@kernel(I64(I64_2D, I64_2D))
-def lowest_corner_z(vertices, faces):
-    """The lowest z of any face corner (vertices no face uses do not count).
-
-    Preconditions: at least one face; 0 <= faces < len(vertices).
-    """
-    lowest = vertices[faces[0, 0], 2]
-    for f in range(faces.shape[0]):
-        for j in range(3):
-            lowest = min(lowest, vertices[faces[f, j], 2])
-    return lowest
-
-
 @kernel(types.Tuple((I64_2D_OUT, F64_1D_OUT))(I64_2D, I64_2D, I64), parallel=True)
 def face_slopes(vertices, faces, dz):
     """Per face: integer z range and the float64 slope of spec section 3.

@@ -57,8 +57,9 @@ def _point(vertices, p, q, zk):
 def _point_up(vertices, a, b, zk):
     """Crossing of the edge from a (below or on zk) to b (above zk) with plane zk.
 
-    ``a + (b - a) * t / dz`` per coordinate, rounded to nearest (ties away from
-    zero) by an exact integer division, as ``crossings.crossing_points``.
+    ``a + round((b - a) * t / dz)`` per coordinate: the offset from a rounded to
+    nearest (ties away from zero) by an exact integer division, as
+    ``crossings.crossing_points``.
     """
     za = vertices[a, 2]
     dz = vertices[b, 2] - za

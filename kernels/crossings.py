@@ -39,8 +39,11 @@ def crossing_points(vertices, edge_vertices, vert_layer, edge_offsets, z):
     Edge ``e`` (oriented from its lower to its upper end a -> b) crosses the planes
     ``k`` with ``za <= z[k] < zb``; its crossings are rows
     ``edge_offsets[e]:edge_offsets[e + 1]`` of the result, in increasing ``k``. The
-    point is ``a.xy + (b.xy - a.xy) * (z - za) / (zb - za)`` rounded once, half away
-    from zero, in exact integer arithmetic.
+    point is ``a.xy + round((b.xy - a.xy) * (z - za) / (zb - za))``: the offset from
+    the lower end a, rounded once, half away from zero, in exact integer
+    arithmetic (the same as rounding the point itself except at an exact tie
+    where point and offset have opposite signs; rounding the offset keeps
+    slicing translation-invariant).
 
     Preconditions: ``z`` sorted; ``vert_layer[v]`` is the number of planes strictly
     below vertex ``v``; ``edge_offsets`` is the cumulative sum of

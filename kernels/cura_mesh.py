@@ -94,6 +94,7 @@ def _has(faces, g, v):
 
 @kernel(
     I64(I64_2D, I64_2D, I64, I64, I64, I64_1D, I64, I64),
+    error_model="numpy",
 )
 def _smallest_angle(vertices, faces, f, a, b, cands, lo, hi):
     """CuraEngine's choice among several faces across edge a -> b of face ``f``.
@@ -101,6 +102,12 @@ def _smallest_angle(vertices, faces, f, a, b, cands, lo, hi):
     Candidates are the faces ``cands[lo:hi]`` (in face order) other than ``f``
     that contain ``a`` and ``b``; the winner has the smallest angle in [0, 2 pi)
     from face ``f`` (first one on a tie).
+
+    Floats follow IEEE rules as CuraEngine's doubles do (``error_model="numpy"``):
+    an edge of length zero (two vertex indices at one position, which a mesh not
+    loaded the CuraEngine way can hold) divides by zero into NaN angles, which
+    no comparison prefers, so no candidate wins (-1), as in CuraEngine; Python's
+    rules would raise ZeroDivisionError inside the parallel kernel.
     """
     w = _third(faces, f, a, b)
     v0x = (vertices[b, 0] - vertices[a, 0]) / 1000.0

@@ -125,7 +125,9 @@ def _dot(a, b):
 def _smallest_angle(vertices, faces, idx0, idx1, other, cands):
     v0 = _sub(vertices[idx1], vertices[idx0])
     norm = math.sqrt(_dot(v0, v0))
-    n = [c / norm for c in v0]
+    # doubles: an edge of length zero divides 0 by 0 into NaN, and NaN angles
+    # lose every comparison (no candidate wins)
+    n = [c / norm for c in v0] if norm else [math.nan] * 3
     n0 = _cross(_sub(vertices[other], vertices[idx0]), v0)
     best, best_angle = -1, 1000.0
     for g in cands:
@@ -318,6 +320,8 @@ def slice_layer(vertices, faces, z, comp_limit):
     ``stitch`` (10 mm, with reversal); closed polygons first, then those the two
     stitching calls closed, in closing order; open polylines by index.
     """
+    # addFace drops a face that repeats a vertex index
+    faces = [f for f in faces if len(set(f)) == 3]
     neighbours = face_neighbours(vertices, faces)
     vf = connected_faces(faces, len(vertices))
     segs = layer_segments(vertices, faces, neighbours, z, comp_limit)

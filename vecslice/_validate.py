@@ -145,10 +145,11 @@ def check_int(
     return v
 
 
-def check_bool(value: object, name: str) -> bool:
+def check_bool(value: object, name: str, *, setting: bool = False) -> bool:
     """Return ``value`` if it is a bool (or numpy bool); raise InputTypeError.
 
-    Options are never taken by truthiness: ``"no"`` is not False.
+    Options are never taken by truthiness: ``"no"`` is not False. ``setting``: a
+    :class:`SliceSettings` field, whose errors are also SettingsErrors.
 
     Examples
     --------
@@ -160,7 +161,8 @@ def check_bool(value: object, name: str) -> bool:
     vecslice.errors.InputTypeError: `compress` must be True or False; got str 'no'
     """
     if not isinstance(value, (bool, np.bool_)):
-        raise InputTypeError(f"`{name}` must be True or False; got {_describe(value)}")
+        error = SettingsTypeError if setting else InputTypeError
+        raise error(f"`{name}` must be True or False; got {_describe(value)}")
     return bool(value)
 
 
@@ -196,5 +198,8 @@ def check_option(value: object, options: Sequence[str], name: str) -> str:
     return value
 
 
-class SettingsTypeError(InputTypeError):
-    """A setting of the wrong type (kept private: it is an InputTypeError)."""
+class SettingsTypeError(SettingsError, InputTypeError):
+    """A setting of the wrong type, or an unknown one: a SettingsError and a TypeError.
+
+    Kept private: callers catch it as either.
+    """

@@ -15,7 +15,6 @@ from numpy.typing import NDArray
 
 from vecslice._kernels.adaptive import (
     adaptive_layers_sorted,
-    lowest_corner_z,
     sort_faces,
 )
 from vecslice._kernels.adaptive import face_slopes as _face_slopes
@@ -97,7 +96,7 @@ def _shift(mesh: Mesh, frame: str) -> int:
         return 0
     # the lowest corner of any face: CuraEngine's vertex list holds no vertex
     # without a face
-    return int(lowest_corner_z(mesh.vertices, mesh.faces))
+    return mesh._corner_zrange()[0]
 
 
 def face_slopes(

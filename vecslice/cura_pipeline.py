@@ -232,9 +232,14 @@ def slice_mesh_cura(
         parts = st.run("parts", make_parts, before.polygons,
                        union_overlapping_volumes=settings.union_overlapping_volumes)
         stats = raw.stats if raw.stats is not None else np.zeros((0, 4), np.int64)
+        # chains left open by CuraEngine's stitching (stats[:, 2] counts them
+        # before it), as the default mode counts them after vecslice's
+        left = raw.polygons.open
+        open_chains = (left.rings_per_layer() if left is not None
+                       else np.zeros(raw.polygons.n_layers, np.int64))
         model = st.run("store", SlicedModel.from_parts, parts, slice_z=slice_z,
                        print_z=print_z, thickness=thickness,
-                       open=before.polygons.open, open_chains=stats[:, 2],
+                       open=before.polygons.open, open_chains=open_chains,
                        stitched_gaps=stats[:, 3])
     finally:
         st.close()

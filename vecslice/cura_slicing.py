@@ -167,9 +167,11 @@ def cura_raw(
             f"`slice_z` must be sorted (non-decreasing); got {z[i]} > {z[i + 1]} at "
             f"index {i}"
         )
-    limit = (int(vertices[:, 2].min()) + 1 if compensate_below is None
+    limit = (mesh._corner_zrange()[0] + 1 if compensate_below is None
              else compensate_below)
-    vf_offsets, vf_faces, neighbours = mesh._cura_topology()  # built once per mesh
+    # built once per mesh; faces that repeat a vertex index are dropped, as
+    # CuraEngine's addFace drops them (their corners still count for the limit)
+    faces, vf_offsets, vf_faces, neighbours = mesh._cura_topology()
     vert_layer = vertex_layers(vertices, z, run=run_chunks)  # searchsorted, left
     face_lo, slot_offsets = face_ranges(vert_layer, faces)
     valid = classify_slots(vertices, faces, z, face_lo, slot_offsets, limit)

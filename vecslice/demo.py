@@ -67,6 +67,9 @@ def _prism(
     return vertices, np.concatenate(caps + walls).astype(np.int64)
 
 
+MAX_SEGMENTS = 2**20  # 12 million faces, about 0.5 GB: refused above, not allocated
+
+
 def demo_mesh(*, segments: int = 64) -> Mesh:
     """A 30 mm test part: a plate with a through-hole and a cylindrical boss.
 
@@ -78,7 +81,8 @@ def demo_mesh(*, segments: int = 64) -> Mesh:
     Parameters
     ----------
     segments : int, default 64
-        Polygon sides of the hole and the boss; a multiple of 4, at least 8.
+        Polygon sides of the hole and the boss; a multiple of 4, at least 8 and
+        at most ``2**20`` (12 million faces).
 
     Returns
     -------
@@ -92,7 +96,8 @@ def demo_mesh(*, segments: int = 64) -> Mesh:
     >>> m.n_faces, m.n_bodies, m.is_watertight, m.bounds.tolist()
     (768, 2, True, [[-15000, -10000, 0], [15000, 10000, 15000]])
     """
-    n = check_int(segments, "segments", minimum=8)
+    n = check_int(segments, "segments", minimum=8, maximum=MAX_SEGMENTS,
+                  what="an integer number of polygon sides")
     if n % 4:
         raise InputValueError(f"`segments` must be a multiple of 4; got {n}")
     outer = _rectangle(-15000, -10000, 15000, 10000, n // 4)

@@ -9,9 +9,10 @@ from numpy.typing import NDArray
 
 from vecslice._validate import check_int, check_layer_count
 from vecslice.adaptive import adaptive_layer_heights
-from vecslice.errors import InputTypeError
+from vecslice.errors import InputTypeError, InputValueError
 from vecslice.mesh import Mesh
 from vecslice.settings import SliceSettings
+from vecslice.units import COORD_LIMIT
 
 __all__ = ["layer_count", "layer_heights", "layer_schedule"]
 
@@ -132,10 +133,12 @@ def layer_heights(
     ``adaptive_threshold``. As in CuraEngine, bit for bit:
 
     * layer 0 is always ``initial_layer_height`` thick, whatever the mesh, and
-      the next layers are forced to thin from it by up to two steps per layer;
-    * a layer is at most one step thicker than the one below it, so thick layers
-      come back gradually after a shallow region, and a short shallow feature may
-      be passed before the layers have thinned;
+      layer 1 is usually forced: with the defaults (300 µm, then at most 200 µm
+      allowed) it takes the thickest allowed height, 200 µm, whatever the
+      geometry; a small first layer instead ramps up one step per layer;
+    * a layer is at most one step thicker than the one below it and at most two
+      steps thinner, so thick layers come back gradually after a shallow region,
+      and a short shallow feature may be passed before the layers have thinned;
     * every layer is cut at its **top** (``slice_z == print_z`` relative to the
       lowest point), in every slicing tolerance; 'middle' only makes each layer
       look at the lower half of its height, and 'inclusive'/'exclusive' still
@@ -147,8 +150,9 @@ def layer_heights(
 
     Examples
     --------
-    A cone 2 mm tall, 10 mm wide (slope about 22 degrees): after layer 0 the layers
-    thin by two steps each until 80 µm layers keep the stair-steps within 0.2 mm;
+    A cone 2 mm tall, 10 mm wide (slope about 22 degrees): layer 1 is 200 µm, then
+    the layers thin by two steps each until 80 µm layers keep the stair-steps
+    within 0.2 mm;
     the last layer ends above the tip at 2 mm:
 
     >>> import trimesh, vecslice as vs
@@ -172,9 +176,19 @@ def layer_heights(
             f"{type(mesh).__name__}"
         )
     if settings.adaptive_layers:
-        return adaptive_layer_heights(mesh, settings)
-    verts = mesh.vertices
-    zmin = int(verts[:, 2].min())
-    zmax = int(verts[:, 2].max())
-    z, print_z, thickness = layer_schedule(zmax - zmin, settings)
-    return z + zmin, print_z, thickness
+        z, print_z, thickness = adaptive_layer_heights(mesh, settings)
+    else:
+        # the model's z range: face corners (a vertex no face uses is not sliced)
+        zmin, zmax = mesh._corner_zrange()
+        z, print_z, thickness = layer_schedule(zmax - zmin, settings)
+        z = z + zmin
+    if z.size and int(z.max()) >= COORD_LIMIT:
+        k = int(np.argmax(z >= COORD_LIMIT))
+        raise InputValueError(
+            f"the layer schedule must stay below z = 2**30 µm (the coordinate "
+            f"limit); got layer {k} at z = {int(z[k])} µm, above a mesh whose top is "
+            f"at {mesh._corner_zrange()[1]} µm"
+            + (" (the last adaptive layer ends above the model)"
+               if settings.adaptive_layers else "") + ": move the mesh down"
+        )
+    return z, print_z, thickness

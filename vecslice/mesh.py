@@ -127,6 +127,10 @@ class Mesh:
     _cura: tuple[NDArray[np.int64], ...] | None = field(
         default=None, init=False, repr=False, compare=False
     )
+    # the lowest and highest face corner; see _corner_zrange
+    _zcorners: tuple[int, int] | None = field(
+        default=None, init=False, repr=False, compare=False
+    )
     # the faces in zmin order for adaptive layers, with the frame shift they were
     # made for; see vecslice.adaptive
     _adaptive: tuple[Any, ...] | None = field(
@@ -156,6 +160,7 @@ class Mesh:
         object.__setattr__(self, "load_info", info)
         object.__setattr__(self, "_twins", None)
         object.__setattr__(self, "_cura", None)
+        object.__setattr__(self, "_zcorners", None)
         object.__setattr__(self, "_adaptive", None)
 
     def __getstate__(self) -> tuple[Any, ...]:
@@ -198,20 +203,27 @@ class Mesh:
         return twins
 
     def _cura_topology(self) -> tuple[NDArray[np.int64], ...]:
-        """``(vf_offsets, vf_faces, neighbours)`` of CuraEngine's mesh, built once.
+        """CuraEngine's ``(faces, vf_offsets, vf_faces, neighbours)``, built once.
 
-        The faces of each vertex (:func:`vertex_faces`) and the face across each
-        face edge (:func:`face_neighbours`, which also reads the vertices: a moved
-        copy builds its own). Cached like :meth:`_half_edge_twins`.
+        ``faces`` are this mesh's faces without those that repeat a vertex index
+        (CuraEngine's ``addFace`` drops them; ``Mesh(vertices, faces)`` keeps
+        them), the same array when there are none. Then the faces of each vertex
+        (:func:`vertex_faces`) and the face across each face edge
+        (:func:`face_neighbours`, which also reads the vertices: a moved copy
+        builds its own). Cached like :meth:`_half_edge_twins`.
         """
         cura = self._cura
         if cura is None:
             from vecslice._kernels.cura_mesh import face_neighbours, vertex_faces
 
-            vf_offsets, vf_faces = vertex_faces(self.faces, self.vertices.shape[0])
-            neighbours = face_neighbours(self.vertices, self.faces, vf_offsets,
-                                         vf_faces)
-            cura = (_freeze(vf_offsets), _freeze(vf_faces), _freeze(neighbours))
+            f = self.faces
+            a, b, c = f[:, 0], f[:, 1], f[:, 2]
+            repeated = (a == b) | (b == c) | (a == c)
+            if repeated.any():
+                f = _freeze(np.ascontiguousarray(f[~repeated]))
+            vf_offsets, vf_faces = vertex_faces(f, self.vertices.shape[0])
+            neighbours = face_neighbours(self.vertices, f, vf_offsets, vf_faces)
+            cura = (f, _freeze(vf_offsets), _freeze(vf_faces), _freeze(neighbours))
             object.__setattr__(self, "_cura", cura)
         return cura
 
@@ -316,6 +328,24 @@ class Mesh:
         """Lowest and highest vertex z in µm."""
         z = self.vertices[:, 2]
         return int(z.min()), int(z.max())
+
+    def _corner_zrange(self) -> tuple[int, int]:
+        """Lowest and highest z of a face corner in µm, computed once.
+
+        What the layer schedules measure from: a vertex that no face uses
+        (``Mesh(vertices, faces)`` keeps them) is not part of the model, as in
+        CuraEngine, whose vertex list holds only the vertices of faces. The
+        vertex range for a mesh without faces.
+        """
+        zr = self._zcorners
+        if zr is None:
+            if self.faces.shape[0] == 0:
+                zr = self.zrange
+            else:  # numpy (10 ms for a million faces): no kernel to compile
+                z = self.vertices[:, 2][self.faces]
+                zr = (int(z.min()), int(z.max()))
+            object.__setattr__(self, "_zcorners", zr)
+        return zr
 
     @property
     def is_watertight(self) -> bool:

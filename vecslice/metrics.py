@@ -26,6 +26,7 @@ from vecslice._threads import chunk_bounds, run_chunks
 from vecslice.errors import InputTypeError, InputValueError
 from vecslice.moves import MoveStats, _check_number, move_stats
 from vecslice.paths import LayerPaths
+from vecslice.ragged import freeze
 from vecslice.settings import SliceSettings
 from vecslice.staircase import VolumeStats, volume_error
 from vecslice.storage import SlicedModel
@@ -77,8 +78,9 @@ class ContourErrors:
         dropped.
     xor_area_um2 : ndarray of shape (R,), float64
         ``∫ |w_raw - w_simplified| dA`` in µm² (winding numbers): the area of the
-        symmetric difference of the two rings when both are simple; the whole
-        raw area for a dropped ring.
+        symmetric difference of the two rings when both are simple and wound the
+        same way (rings of opposite windings count their overlap twice); the
+        whole raw area for a dropped ring.
     linear : ndarray of shape (R,), bool
         Whether the pass over the order correspondence settled the ring's XOR
         area (pieces that may overlap measured together by a sweep); where not,
@@ -95,6 +97,13 @@ class ContourErrors:
     linear: NDArray[np.bool_]
     ring_layer: NDArray[np.int64]
     raw_area_um2: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        # read-only, like every container's arrays: writing into one would change
+        # the maxima and sums computed from it (see ragged.freeze)
+        for name in ("raw_to_simplified_um", "simplified_to_raw_um", "xor_area_um2",
+                     "linear", "ring_layer", "raw_area_um2"):
+            object.__setattr__(self, name, freeze(np.asarray(getattr(self, name))))
 
     @property
     def n_layers(self) -> int:
@@ -283,8 +292,12 @@ def _errors_of(raw: LayerPaths,
 
 
 def _raw_area_um2(raw: LayerPaths) -> NDArray[np.float64]:
-    """The net area of each layer of ``raw``, µm² (signed ring areas summed)."""
-    return raw.layer_area2().astype(np.float64) / 2
+    """The net area of each layer of ``raw``, µm² (signed ring areas summed).
+
+    Summed in float64 (the result is float): no int64 sum that could wrap.
+    """
+    return np.bincount(raw.ring_layer(), weights=raw.area2().astype(np.float64),
+                       minlength=raw.n_layers) / 2
 
 
 def simplification_errors(

@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vecslice._kernels.rings import ring_area2
 from vecslice._validate import as_coords, check_int
-from vecslice.errors import InputTypeError, LayoutError
+from vecslice.errors import InputTypeError, InputValueError, LayoutError
 from vecslice.ragged import (
     RaggedContainer,
     adopt,
@@ -247,9 +247,27 @@ class LayerPaths(RaggedContainer):
         return ring_area2(self.coords, self.ring_offsets)
 
     def layer_area2(self) -> NDArray[np.int64]:
-        """Twice the signed area summed over the rings of each layer, shape (L,)."""
+        """Twice the signed area summed over the rings of each layer, shape (L,).
+
+        Exact. Raises InputValueError if a layer's sum does not fit int64 (each
+        ring's does: |coordinates| < 2**30; rings of a layer as large as that,
+        overlapping, can sum beyond it) instead of wrapping around.
+        """
+        area2 = self.area2()
+        layer = self.ring_layer()
         out = np.zeros(self.n_layers, dtype=np.int64)
-        np.add.at(out, self.ring_layer(), self.area2())
+        np.add.at(out, layer, area2)
+        # the float64 sums are within 2**11 per ring of the exact ones: a layer
+        # below 2**62 in float cannot have wrapped; the others are summed exactly
+        approx = np.bincount(layer, weights=area2.astype(np.float64),
+                             minlength=self.n_layers)
+        for k in np.flatnonzero(np.abs(approx) >= 2.0**62).tolist():
+            exact = sum(int(a) for a in area2[layer == k])
+            if not -(2**63) <= exact < 2**63:
+                raise InputValueError(
+                    f"twice the area of layer {k} must fit int64 (|value| < 2**63); "
+                    f"got {exact} µm² (overlapping rings near the coordinate limit)"
+                )
         return out
 
     def __repr__(self) -> str:

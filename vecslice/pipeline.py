@@ -19,7 +19,7 @@ from vecslice._kernels.simplify import remove_degenerate_vertices, ring_perimete
 from vecslice._validate import check_bool
 from vecslice.errors import InputTypeError
 from vecslice.layers import layer_heights
-from vecslice.parts import apply_slicing_tolerance, make_parts
+from vecslice.parts import _check_loops, apply_slicing_tolerance, make_parts
 from vecslice.paths import LayerPaths
 from vecslice.settings import SliceSettings
 from vecslice.simplify import simplify_rings
@@ -113,7 +113,7 @@ def _clean_closed(
     return coords, full
 
 
-def clean_loops(loops: LayerPaths, settings: SliceSettings) -> LayerPaths:
+def clean_loops(loops: LayerPaths, settings: SliceSettings | None = None) -> LayerPaths:
     """CuraEngine's per-layer clean-up of raw loops, for all layers at once.
 
     Closed loops with a perimeter below ``minimum_polygon_circumference`` are
@@ -125,15 +125,34 @@ def clean_loops(loops: LayerPaths, settings: SliceSettings) -> LayerPaths:
     ----------
     loops : LayerPaths
         Raw loops from :func:`vecslice.slice_contours`.
-    settings : SliceSettings
-        The thresholds (µm).
+    settings : SliceSettings, optional
+        The thresholds (µm); default ``SliceSettings()``.
 
     Returns
     -------
     LayerPaths
         Cleaned closed loops, with cleaned open chains in ``.open``.
+
+    Raises
+    ------
+    InputTypeError
+        If ``loops`` is not a LayerPaths or ``settings`` not a SliceSettings.
     """
+    loops = _check_loops(loops)
+    settings = _check_settings(settings)
     return _cleaned(loops, settings, *_clean_closed(loops, settings))
+
+
+def _check_settings(settings: Any) -> SliceSettings:
+    """``settings`` (default ``SliceSettings()``), or an InputTypeError."""
+    if settings is None:
+        return SliceSettings()
+    if not isinstance(settings, SliceSettings):
+        raise InputTypeError(
+            "`settings` must be a vecslice.SliceSettings; "
+            f"got {type(settings).__name__}"
+        )
+    return settings
 
 
 def _cleaned(
@@ -239,13 +258,7 @@ def slice_mesh(
     >>> model.n_layers, len(model.layer(0)), float(model.layer_areas()[0])
     (18, 1, 100000000.0)
     """
-    if settings is None:
-        settings = SliceSettings()
-    if not isinstance(settings, SliceSettings):
-        raise InputTypeError(
-            "`settings` must be a vecslice.SliceSettings; "
-            f"got {type(settings).__name__}"
-        )
+    settings = _check_settings(settings)
     progress = check_bool(progress, "progress")
     if times is not None and not isinstance(times, StageTimes):
         raise InputTypeError(

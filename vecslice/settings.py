@@ -6,8 +6,8 @@ from dataclasses import dataclass, fields
 from difflib import get_close_matches
 from typing import Literal
 
-from vecslice._validate import check_bool, check_int, check_option
-from vecslice.errors import InputTypeError, SettingsError
+from vecslice._validate import SettingsTypeError, check_bool, check_int, check_option
+from vecslice.errors import SettingsError
 
 __all__ = ["COMPAT_MODES", "MAX_LAYERS", "SLICING_TOLERANCES", "SliceSettings"]
 
@@ -33,7 +33,11 @@ class SliceSettings:
     max_resolution : int, default 500
         Edges shorter than this (µm) may be removed by simplification.
     max_deviation : int, default 25
-        Largest distance (µm) a simplified contour may move away from the raw one.
+        CuraEngine's per-removal threshold (µm): a vertex is removed only if it
+        lies within this distance of the line through its kept neighbours (and a
+        short edge is replaced by an intersection only within it). Removals
+        accumulate, so the simplified contour can end up further than this from
+        the raw one; :mod:`vecslice.metrics` measures how far.
     max_area_deviation : int, default 50000
         Largest extrusion-area change (µm²) for variable-width paths.
     minimum_polygon_circumference : int, default 1000
@@ -118,7 +122,7 @@ class SliceSettings:
             name = sorted(unknown)[0]
             close = get_close_matches(name, self.option_names(), n=1)
             hint = f"; did you mean `{close[0]}`?" if close else ""
-            raise InputTypeError(
+            raise SettingsTypeError(
                 f"unknown setting `{name}` (got {unknown[name]!r}); settings are "
                 f"{', '.join(self.option_names())}{hint}"
             )
@@ -142,7 +146,8 @@ class SliceSettings:
         object.__setattr__(self, "max_area_deviation", v)
         check_option(self.slicing_tolerance, SLICING_TOLERANCES, "slicing_tolerance")
         check_option(self.compat, COMPAT_MODES, "compat")
-        v = check_bool(self.union_overlapping_volumes, "union_overlapping_volumes")
+        v = check_bool(self.union_overlapping_volumes, "union_overlapping_volumes",
+                       setting=True)
         object.__setattr__(self, "union_overlapping_volumes", v)
         n = check_int(self.max_layers, "max_layers", minimum=1,
                       what="an integer number of layers")
@@ -150,7 +155,7 @@ class SliceSettings:
         self._check_adaptive(limit)
 
     def _check_adaptive(self, limit: int) -> None:
-        on = check_bool(self.adaptive_layers, "adaptive_layers")
+        on = check_bool(self.adaptive_layers, "adaptive_layers", setting=True)
         object.__setattr__(self, "adaptive_layers", on)
         # ADAPTIVE.md section 1: a step <= 0 never ends CuraEngine's list of allowed
         # heights; a negative variation leaves it empty (undefined behaviour there)

@@ -74,7 +74,28 @@ def simplify_rings(
             out_w[dst0:dst1] = buf_w[src0:src0 + dst1 - dst0]
 
     run_chunks(gather, bounds)
+    _check_moved_within_limit(out, max_deviation)
     return (out, out_w, offsets) if has_w else (out, offsets)
+
+
+def _check_moved_within_limit(out: NDArray[np.int64], max_deviation: int) -> None:
+    """Raise if the short-edge rule moved a vertex beyond the coordinate limit.
+
+    The intersection that replaces a short edge lies within ``max_deviation`` of
+    it, so input near the 2**30 µm limit with a large ``max_deviation`` can
+    produce a vertex beyond it, which vecslice's arrays cannot hold (CuraEngine's
+    result, which has no such limit, is not clamped to another one).
+    """
+    if out.size == 0:
+        return
+    lo, hi = int(out.min()), int(out.max())
+    if lo <= -COORD_LIMIT or hi >= COORD_LIMIT:
+        far = hi if hi >= COORD_LIMIT else lo
+        raise InputValueError(
+            f"`max_deviation` ({max_deviation} µm) let the simplification move a "
+            f"vertex to {far} µm, beyond the |value| < 2**30 µm limit; use a smaller "
+            "max_deviation or keep the input further from the limit"
+        )
 
 
 def _drop_empty(offsets: NDArray[np.int64]) -> NDArray[np.int64]:

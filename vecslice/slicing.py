@@ -106,10 +106,12 @@ def slice_contours(
     Notes
     -----
     Each mesh edge is intersected once with every plane it crosses, and both faces
-    sharing it use that one point, rounded once (half away from zero) in exact
-    integer arithmetic: loops close by construction. A vertex exactly on a plane
-    counts as below it, so a face meets plane z iff ``zmin <= z < zmax``: a plane at
-    a model's bottom gives its bottom outline and a plane at its top gives nothing.
+    sharing it use that one point, rounded once in exact integer arithmetic (its
+    offset from the edge's lower end, half away from zero: slicing a translated
+    mesh gives exactly translated loops): loops close by construction. A vertex
+    exactly on a plane counts as below it, so a face meets plane z iff ``zmin <= z
+    < zmax``: a plane at a model's bottom gives its bottom outline and a plane at
+    its top gives nothing.
     Loops follow the mesh topology: each crossing is joined to the next face's
     segment through the edge they share (pairwise on non-manifold edges). Chains
     that do not close (open surfaces, flipped faces) are stitched; what stays open

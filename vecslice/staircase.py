@@ -51,16 +51,17 @@ class VolumeStats:
 
 
 def _volume_below(vertices: NDArray[np.int64], faces: NDArray[np.int64],
-                  height: float) -> float:
+                  zmin: int, height: float) -> float:
     """Signed volume (µm³) of the closed mesh below ``z = zmin + height``.
 
-    Divergence theorem with the field (x, 0, 0): the cut face is horizontal and
-    contributes nothing, so the volume is the sum over the faces' parts below the
-    plane of ``n_x * area * centroid_x`` (triangles clipped, in float64).
+    ``zmin`` is the mesh's lowest face corner. Divergence theorem with the field
+    (x, 0, 0): the cut face is horizontal and contributes nothing, so the volume
+    is the sum over the faces' parts below the plane of ``n_x * area *
+    centroid_x`` (triangles clipped, in float64).
     """
     v = vertices.astype(np.float64)
     v -= v.mean(axis=0)
-    v[:, 2] = vertices[:, 2] - vertices[:, 2].min()  # heights from the bottom
+    v[:, 2] = vertices[:, 2] - zmin  # heights from the bottom
     tri = v[faces]
     below = tri[:, :, 2] <= height
     nb = below.sum(axis=1)
@@ -138,14 +139,14 @@ def volume_error(
         raise InputTypeError(
             f"`mesh` must be a vecslice.Mesh; got {type(mesh).__name__}"
         )
-    zmin, zmax = mesh.zrange
+    zmin, zmax = mesh._corner_zrange()  # the model: vertices of faces
     h = zmax - zmin
     top = np.clip(model.print_z, 0, h)
     bottom = np.clip(model.print_z - model.thickness, 0, h)
     stair = float((model.layer_areas() * (top - bottom)).sum()) * 1e-9
     vol = (mesh.volume if _mesh_volume is None else _mesh_volume) * 1e-9
     stack = int(model.print_z[-1]) if model.n_layers else 0
-    ref = vol if stack >= h else _volume_below(mesh.vertices, mesh.faces,
+    ref = vol if stack >= h else _volume_below(mesh.vertices, mesh.faces, zmin,
                                                float(stack)) * 1e-9
     err = stair - ref
     return VolumeStats(

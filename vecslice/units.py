@@ -55,7 +55,7 @@ def to_microns(mm: ArrayLike, *, name: str = "mm") -> NDArray[np.int64]:
         i = int(big[0])
         raise InputValueError(
             f"`{name}` must be below {COORD_LIMIT / 1000:g} mm in magnitude "
-            f"(2**30 µm); got {a.ravel()[i]!r} mm at flat index {i}"
+            f"(2**30 µm); got {float(a.ravel()[i])!r} mm at flat index {i}"
         )
     return um.astype(np.int64)
 

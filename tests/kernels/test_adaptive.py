@@ -12,7 +12,6 @@ from vecslice._kernels.adaptive import (
     TAU,
     adaptive_layers,
     face_slopes,
-    lowest_corner_z,
     zmin_order,
 )
 
@@ -91,13 +90,6 @@ def test_wrap_shortcut_is_cura_fmod(a):
     # face_slopes writes CuraEngine's fmod(fmod(a, TAU) + TAU, TAU) as
     # (a + TAU) - TAU, exact for a in [0, pi/2] (Sterbenz); both give the same bits
     assert ((a + TAU) - TAU).hex() == math.fmod(math.fmod(a, TAU) + TAU, TAU).hex()
-
-
-@given(triangles())
-def test_lowest_corner_z_ignores_unused_vertices(case):
-    verts, faces, _ = case
-    used = np.unique(faces)
-    assert lowest_corner_z(verts, faces) == verts[used, 2].min()
 
 
 @given(st.lists(st.integers(-2000, 2000), min_size=1, max_size=40),

@@ -216,3 +216,29 @@ def test_slicing_tolerance_in_compat_mode(tolerance):
     assert np.array_equal(model.slice_z, z)
     areas = model.layer_areas()
     assert np.all(np.abs(areas[:-1] - 4e6) <= 4e6 * 0.01)
+
+
+def test_open_chains_count_the_chains_left_open(meshes_dir):
+    """``open_chains`` counts the chains CuraEngine's stitching leaves open (as in
+    the default mode), not those open before it (teapot: 477 before, none after)."""
+    mesh = vs.load_mesh(meshes_dir / "teapot.stl", compat="cura")
+    raw = cura_raw(mesh, vs.layer_heights(mesh, CURA)[0])
+    model = vs.slice_mesh(mesh, CURA)
+    assert raw.stats[:, 2].sum() > 0  # chains open before stitching
+    assert np.array_equal(model.open_chains, raw.polygons.open.rings_per_layer())
+    assert model.open_chains.sum() == 0 == model.open.n_rings
+    assert np.array_equal(model.stitched_gaps, raw.stats[:, 3])
+
+
+def test_faces_repeating_a_vertex_index_are_dropped(meshes_dir):
+    """CuraEngine's addFace drops a face [a, a, b]; a vs.Mesh may hold one (it used
+    to crash the parallel neighbour kernel: a division by a zero-length edge)."""
+    mesh = vs.load_mesh(meshes_dir / "Voron_Design_Cube_v7.stl", compat="cura")
+    a, b = (int(i) for i in mesh.faces[7, :2])
+    faces = np.vstack([mesh.faces[:5], [[a, a, b]], mesh.faces[5:], [[b, a, b]]])
+    damaged = vs.Mesh(mesh.vertices, faces)
+    want = vs.slice_mesh(mesh, CURA)
+    got = vs.slice_mesh(damaged, CURA)
+    assert np.array_equal(got.coords, want.coords)
+    assert np.array_equal(got.part_offsets, want.part_offsets)
+    assert np.array_equal(got.layer_offsets, want.layer_offsets)

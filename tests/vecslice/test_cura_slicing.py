@@ -22,13 +22,15 @@ def _layers(paths):
 @st.composite
 def damaged_meshes(draw):
     """Closed meshes, then some faces dropped, flipped or doubled and some vertices
-    moved onto a plane: open chains, vertices on planes, non-manifold edges."""
+    moved onto a plane: open chains, vertices on planes, non-manifold edges. Also
+    faces that repeat a vertex index and edges of length zero (two indices at one
+    position, on three faces: a non-manifold edge), which ``vs.Mesh`` accepts."""
     v, f, planes = draw(closed_meshes())
     rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
     planes = np.unique(np.append(planes, v[:, 2].min()))
     n = len(f)
-    ops = draw(st.lists(st.sampled_from(["drop", "flip", "double", "snap"]),
-                        max_size=4))
+    ops = draw(st.lists(st.sampled_from(["drop", "flip", "double", "snap",
+                                         "repeat", "zero_edge"]), max_size=4))
     for op in ops:
         i = int(rng.integers(0, len(f)))
         if op == "drop" and len(f) > 4:
@@ -40,6 +42,14 @@ def damaged_meshes(draw):
         elif op == "snap":
             j = int(rng.integers(0, len(v)))
             v[j, 2] = planes[int(rng.integers(0, len(planes)))]
+        elif op == "repeat":  # a face [a, a, b]
+            a, b = f[i][0], f[i][1]
+            f = np.vstack([f, [[a, a, b]]])
+        elif op == "zero_edge":  # a copy c of vertex a: edge a-c of length 0
+            a, b, w = f[i]
+            c = len(v)
+            v = np.vstack([v, v[a : a + 1]])
+            f = np.vstack([f, [[a, c, b], [c, a, w], [a, c, w]]])
     assert len(f) >= min(n, 4)
     return v, f, planes
 

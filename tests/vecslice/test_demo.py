@@ -50,6 +50,7 @@ def test_segments(segments):
     (6, vs.SettingsError, r"`segments` must be >= 8; got 6"),
     (10, vs.InputValueError, r"`segments` must be a multiple of 4; got 10"),
     ("64", vs.InputTypeError, r"`segments` must be an integer"),
+    (10**9, vs.SettingsError, r"`segments` must be <= 1048576; got 1000000000"),
 ])
 def test_bad_segments(segments, err, match):
     with pytest.raises(err, match=match):

@@ -41,6 +41,46 @@ def test_layer_heights_are_measured_from_the_lowest_point():
     assert (p0 == p1).all() and (t0 == t1).all()
 
 
+@pytest.mark.parametrize("compat", ["vecslice", "cura"])
+@pytest.mark.parametrize("stray_z", [-50, 500_000])
+def test_a_vertex_no_face_uses_does_not_move_the_schedule(compat, stray_z):
+    """vs.Mesh keeps unused vertices; the schedule is the faces' (as CuraEngine's
+    vertex list, and the adaptive schedule, hold only vertices of faces)."""
+    v = np.array([[0, 0, 0], [1000, 0, 0], [0, 1000, 0], [0, 0, 3000]])
+    f = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    base = vs.Mesh(v, f)
+    stray = vs.Mesh(np.vstack([v, [[9, 9, stray_z]]]), f)
+    s = vs.SliceSettings(compat=compat)
+    for got, want in zip(vs.layer_heights(stray, s), vs.layer_heights(base, s),
+                         strict=True):
+        assert np.array_equal(got, want)
+    a, b = vs.slice_mesh(stray, s), vs.slice_mesh(base, s)
+    assert np.array_equal(a.coords, b.coords) and a.n_layers == b.n_layers
+    from vecslice.metrics import volume_error
+
+    va = volume_error(a, stray)
+    vb = volume_error(b, base)
+    assert va == vb
+    assert stray._corner_zrange() == (0, 3000) and stray.zrange[0] == min(0, stray_z)
+
+
+def test_a_schedule_beyond_the_coordinate_limit_is_refused_by_name():
+    """The last adaptive layer ends above the model: on a mesh whose top is near
+    2**30 µm it used to fail later, blaming a `slice_z` the user never gave."""
+    x = 2**30 - 1
+    m = vs.Mesh.from_arrays([[-x, -x, -x], [x, -x, -x], [0, x, -x], [0, 0, x]],
+                            [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    s = vs.SliceSettings(layer_height=10**8, initial_layer_height=10**8,
+                         adaptive_layers=True, adaptive_variation=0)
+    match = (r"the layer schedule must stay below z = 2\*\*30 µm .*; got layer 21 at "
+             r"z = 1126258177 µm, above a mesh whose top is at 1073741823 µm \(the "
+             r"last adaptive layer ends above the model\): move the mesh down")
+    with pytest.raises(vs.InputValueError, match=match):
+        vs.layer_heights(m, s)
+    with pytest.raises(vs.InputValueError, match=match):
+        vs.slice_mesh(m, s)
+
+
 def test_default_settings():
     mesh = vs.Mesh.from_arrays(
         np.array([[0, 0, 0], [1000, 0, 0], [0, 1000, 0], [0, 0, 1000]]),
@@ -83,11 +123,15 @@ def test_bad_settings(kwargs, error, fragment):
     with pytest.raises(error, match=fragment.replace("(", r"\(")) as info:
         vs.SliceSettings(**kwargs)
     assert isinstance(info.value, vs.VecsliceError)
+    # every bad setting is a SettingsError (as errors.py says), wrong types also
+    # TypeErrors: `except vs.SettingsError` catches them all
+    assert isinstance(info.value, vs.SettingsError)
 
 
 def test_unknown_setting_is_rejected():
-    with pytest.raises(TypeError, match="layer_hieght"):
+    with pytest.raises(TypeError, match="layer_hieght") as info:
         vs.SliceSettings(layer_hieght=100)
+    assert isinstance(info.value, vs.SettingsError)
 
 
 def test_layer_heights_rejects_non_settings():

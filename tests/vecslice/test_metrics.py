@@ -293,3 +293,16 @@ def test_deviation_is_measured_from_vertices():
     assert err.simplified_to_raw_um.tolist() == [0.0]
     mid_gap = 500 * 90 / np.hypot(500, 90)  # (500, 0) to the edge (0,0)-(500,90)
     assert mid_gap > 88 > err.max_deviation_um
+
+
+def test_contour_errors_arrays_are_read_only():
+    """Writing into a result array used to change max_deviation_um behind it."""
+    from vecslice.metrics import simplification_errors
+
+    raw = vs.slice_contours(vs.demo_mesh(), [2000, 7000])
+    err, _ = simplification_errors(raw)
+    for name in ("raw_to_simplified_um", "simplified_to_raw_um", "xor_area_um2",
+                 "linear", "ring_layer", "raw_area_um2"):
+        a = getattr(err, name)
+        with pytest.raises(ValueError, match="read-only"):
+            a[0] = a[0]

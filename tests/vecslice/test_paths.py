@@ -135,3 +135,23 @@ def test_empty_and_paths():
     p = lp.paths()
     assert isinstance(p, Paths) and p.coords is lp.coords  # shared, no copy
     assert p.ring_lengths().tolist() == [3, 4]
+
+
+def test_layer_area2_near_the_int64_limit_is_exact_or_refused():
+    x = 2**30 - 1
+    square = np.array([[-x, -x], [x, -x], [x, x], [-x, x]])
+    one = vs.LayerPaths(square, [0, 4], [0, 1])
+    assert one.layer_area2().tolist() == [2 * (2 * x) ** 2]  # just below 2**63
+    two = vs.LayerPaths(np.vstack([square, square]), [0, 4, 8], [0, 2])
+    with pytest.raises(vs.InputValueError, match="twice the area of layer 0 must fit"):
+        two.layer_area2()  # it used to wrap around to a negative area
+
+
+def test_raw_area_of_overlapping_huge_rings_does_not_wrap():
+    from vecslice.metrics import simplification_errors
+
+    x = 2**30 - 1
+    square = np.array([[-x, -x], [x, -x], [x, x], [-x, x]])
+    raw = vs.LayerPaths(np.vstack([square, square]), [0, 4, 8], [0, 2])
+    err, _ = simplification_errors(raw)
+    assert err.raw_area_um2.tolist() == [float(2 * (2 * x) ** 2)]

@@ -223,3 +223,13 @@ def test_memory_per_layer_is_arrays_not_python_objects():
         tracemalloc.stop()
     assert model.n_layers == 20_000
     assert peak / model.n_layers <= 5 * model.nbytes / model.n_layers
+
+
+def test_clean_loops_checks_its_arguments():
+    raw = vs.slice_contours(vs.demo_mesh(), [2000, 7000])
+    assert vs.clean_loops(raw).coords.tolist() == vs.clean_loops(
+        raw, vs.SliceSettings()).coords.tolist()  # settings default to Cura's
+    with pytest.raises(vs.InputTypeError, match="`settings` must be a vecslice"):
+        vs.clean_loops(raw, {"max_deviation": 25})
+    with pytest.raises(vs.InputTypeError, match="`loops` must be a vecslice"):
+        vs.clean_loops(raw.paths(), vs.SliceSettings())  # used to be AttributeError

@@ -252,3 +252,17 @@ def test_threaded_simplify_rings_matches_the_serial_kernel(monkeypatch, closed,
     assert np.diff(want[-1]).min() == 0 and want[-1][-1] < offs[-1]  # some removed
     for g, x in zip(got, want, strict=True):
         np.testing.assert_array_equal(g, x)
+
+
+def test_a_vertex_moved_beyond_the_coordinate_limit_is_refused():
+    """The short-edge rule can place an intersection up to max_deviation away:
+    near the limit that used to give coordinates vs.Paths itself refuses."""
+    x = 2**30 - 1
+    ring = np.array([[-x, 1250], [0, 0], [x, 1000], [x, 1500], [0, 2500]])
+    with pytest.raises(vs.InputValueError, match=r"`max_deviation` \(1073741824 µm\)"
+                       r" let the simplification move a vertex to 1342177280 µm"):
+        simplify(vs.Paths(ring, [0, 5]), max_resolution=600, max_deviation=2**30)
+    # the same ring away from the limit simplifies, and stays in range
+    out = simplify(vs.Paths(ring // 4, [0, 5]), max_resolution=600,
+                   max_deviation=2**30)
+    assert np.abs(out.coords).max() < 2**30
