@@ -153,12 +153,13 @@ def read_stl_corners(path: Path) -> NDArray[np.float32]:
     Raises
     ------
     MeshFileError
-        If the file is missing, a directory, unreadable, or too short for its type.
+        If the file is missing, a symbolic link loop, a directory, not a regular
+        file (a pipe or a device such as /dev/zero, which would never end),
+        unreadable, or too short for its type.
     """
-    if not path.exists():
-        raise MeshFileError(f"mesh file not found: '{path}'")
-    if path.is_dir():
-        raise MeshFileError(f"'{path}' is a directory, not a mesh file")
+    from vecslice.meshfile import _check_path
+
+    _check_path(path)
     try:
         data = path.read_bytes()
     except OSError as exc:
@@ -298,12 +299,16 @@ def load_mesh_cura(source: Any, scale: float) -> Any:
     """
     import trimesh
 
-    from vecslice.meshfile import _scene_arrays
+    from vecslice.mesh import _as_faces
+    from vecslice.meshfile import _check_path, _scene_arrays
 
     if isinstance(source, trimesh.Trimesh):
         name = "trimesh.Trimesh"
         v = np.asarray(source.vertices, dtype=np.float64)
-        corners = v[np.asarray(source.faces, dtype=np.int64).reshape(-1)]
+        f = np.asarray(source.faces, dtype=np.int64).reshape(-1, 3)
+        if f.shape[0]:  # trimesh(process=False) keeps any index: check as
+            f = _as_faces(f, v.shape[0])  # compat='vecslice' does
+        corners = v[f.reshape(-1)]
     elif isinstance(source, trimesh.Scene):
         name = "trimesh.Scene"
         v, f = _scene_arrays(source)
@@ -311,10 +316,7 @@ def load_mesh_cura(source: Any, scale: float) -> Any:
     elif isinstance(source, (str, Path)) or hasattr(source, "__fspath__"):
         path = Path(source)
         name = str(path)
-        if not path.exists():
-            raise MeshFileError(f"mesh file not found: '{path}'")
-        if path.is_dir():
-            raise MeshFileError(f"'{path}' is a directory, not a mesh file")
+        _check_path(path)  # missing, a link loop, a directory, a pipe or device
         if path.suffix.lower() != ".stl":
             raise MeshFileError(
                 f"'{path}': compat='cura' reads STL files only (CuraEngine's own "

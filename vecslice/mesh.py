@@ -627,11 +627,13 @@ def load_mesh(
     -----
     Limits refuse hostile files before they cost memory: at most
     :data:`vecslice.meshfile.MAX_TRIANGLES` triangles (100 million; also for
-    counts a header announces, and for 3MF after expanding components); for
-    3MF at most :data:`vecslice.threemf.MAX_MODEL_BYTES` (1 GiB) of model XML,
-    inflated no more than :data:`vecslice.threemf.MAX_COMPRESSION_RATIO` (200)
-    times, and at most :data:`vecslice.threemf.MAX_INSTANCES` (a million)
-    object placements.
+    counts a header announces); for 3MF at most
+    :data:`vecslice.threemf.MAX_MODEL_BYTES` (1 GiB) of model XML, inflated no
+    more than :data:`vecslice.threemf.MAX_COMPRESSION_RATIO` (200) times, at most
+    :data:`vecslice.threemf.MAX_BUILD_TRIANGLES` triangles and
+    :data:`vecslice.threemf.MAX_BUILD_VERTICES` vertices (30 million each, also
+    after expanding components) and :data:`vecslice.threemf.MAX_INSTANCES` (a
+    million) object placements.
 
     Examples
     --------

@@ -8,18 +8,21 @@ extension reaches objects in other model parts).
 
 Only model parts are inflated (never thumbnails or textures), each after its
 declared size and compression ratio passed :data:`MAX_MODEL_BYTES` and
-:data:`MAX_COMPRESSION_RATIO`. XML is parsed without network access, without
-entity resolution and with libxml2's size guards; a document type declaration
-is refused. Every build item and every component is walked, so an object reused
-in nested components appears once per placement, with the transforms composed;
-component cycles and expansions beyond :data:`~vecslice.meshfile.MAX_TRIANGLES`
-triangles or :data:`MAX_INSTANCES` placements are refused. The model's ``unit``
-is applied: vertices come out in millimetres.
+:data:`MAX_COMPRESSION_RATIO`. XML is parsed as it inflates, without network
+access, without entity resolution and with libxml2's size guards; a document type
+declaration is refused. No XML tree is built: ``<vertex>`` and ``<triangle>``
+elements are parsed to numbers in chunks, and their counts are checked against
+:data:`MAX_BUILD_VERTICES` and :data:`MAX_BUILD_TRIANGLES` as they grow, so memory
+stays near 24 bytes per vertex and per triangle. Every build item and every
+component is walked, so an object reused in nested components appears once per
+placement, with the transforms composed; component cycles and expansions beyond
+:data:`MAX_BUILD_TRIANGLES` triangles, :data:`MAX_BUILD_VERTICES` vertices or
+:data:`MAX_INSTANCES` placements are refused before any placement is made. The
+model's ``unit`` is applied: vertices come out in millimetres.
 """
 
 from __future__ import annotations
 
-import io
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,13 +33,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice.errors import MeshFileError
-from vecslice.meshfile import MAX_TRIANGLES, _numbers
+from vecslice.meshfile import _numbers
 
 if TYPE_CHECKING:
-    from lxml import etree
+    pass
 
-__all__ = ["MAX_COMPRESSION_RATIO", "MAX_INSTANCES", "MAX_MODEL_BYTES", "UNITS",
-           "read_3mf"]
+__all__ = ["MAX_BUILD_TRIANGLES", "MAX_BUILD_VERTICES", "MAX_COMPRESSION_RATIO",
+           "MAX_INSTANCES", "MAX_MODEL_BYTES", "UNITS", "read_3mf"]
 
 MAX_MODEL_BYTES = 1 << 30
 """Most bytes (1 GiB) the model parts of one 3MF may inflate to, all together."""
@@ -49,6 +52,21 @@ Model XML compresses about 5 to 20 times; a zip bomb a thousand times or more.
 
 MAX_INSTANCES = 1_000_000
 """Most object placements the build may expand to (components in components)."""
+
+MAX_BUILD_TRIANGLES = 30_000_000
+"""Most triangles a 3MF may hold, in its objects and after expanding components.
+
+Components let a file of a few kB place an object millions of times, so this
+caps the result (720 MB of faces), not the file: a 3MF holding or placing more
+is refused before its arrays are made. 3DBenchy has 225,154 triangles; a plate of
+a hundred detailed parts stays below it.
+"""
+
+MAX_BUILD_VERTICES = 30_000_000
+"""Most vertices a 3MF may hold, in its objects and after expanding components.
+
+720 MB of float64 coordinates; see :data:`MAX_BUILD_TRIANGLES`.
+"""
 
 UNITS = {
     "micron": 0.001,
@@ -73,6 +91,10 @@ _RATIO_FROM = 1 << 20
 Key = tuple[str, int]  # (model part, object id)
 
 
+_FEED = 1 << 20  # bytes of XML handed to the parser at a time
+_CHUNK = 1 << 16  # vertices or triangles parsed to numbers at a time
+
+
 @dataclass
 class _Object:
     vertices: NDArray[np.float64]
@@ -89,16 +111,18 @@ class _Package:
     budget: int
     unit: str = "millimeter"
     root: str = ""
-    last_root: Any = None
     objects: dict[Key, _Object] = field(default_factory=dict)
     parsed: set[str] = field(default_factory=set)
     items: list[tuple[Key, NDArray[np.float64]]] = field(default_factory=list)
+    # vertices and triangles of every object read so far (placed or not)
+    counts: dict[str, int] = field(
+        default_factory=lambda: {"vertex": 0, "triangle": 0})
 
     def fail(self, what: str) -> MeshFileError:
         return MeshFileError(f"'{self.path}': {what}")
 
-    def read(self, name: str, *, limit: int) -> bytes:
-        """Inflate member ``name`` after checking its declared sizes."""
+    def member(self, name: str, *, limit: int) -> zipfile.ZipInfo:
+        """Member ``name`` after checking its declared sizes."""
         info = self.members[_norm(name)]
         if info.flag_bits & 0x1:
             raise self.fail(f"3MF part '{name}' is encrypted")
@@ -115,38 +139,41 @@ class _Package:
                 f"({info.compress_size:,} to {info.file_size:,} bytes): a zip bomb? "
                 f"(at most {MAX_COMPRESSION_RATIO} times, "
                 "vecslice.threemf.MAX_COMPRESSION_RATIO)")
-        with self.zf.open(info) as fh:
-            data = fh.read(info.file_size + 1)  # zipfile stops at the declared size
-        if len(data) > info.file_size:
-            raise self.fail(f"3MF part '{name}' is longer than its zip entry says")
-        self.budget -= len(data)
-        return data
+        return info
 
-    def xml(self, name: str, *, limit: int, tags: tuple[str, ...]) -> Any:
-        """Safe iterparse over member ``name``: each element of ``tags`` at its end.
+    def parse(self, name: str, *, limit: int, target: Any) -> None:
+        """Feed member ``name`` to the lxml parser target ``target`` as it inflates.
 
-        Afterwards ``self.last_root`` is the document's root element (or None).
+        No tree is built: memory stays near what the target keeps. No network
+        access, no entity resolution, libxml2's size guards; a document type
+        declaration is refused.
         """
         from lxml import etree
 
-        data = self.read(name, limit=limit)
-        if _has_doctype(data):
-            raise self.fail(f"3MF part '{name}' has a document type declaration "
-                            "(DTD), which 3MF does not allow")
-        events = etree.iterparse(
-            io.BytesIO(data), events=("end",), tag=tags,
-            resolve_entities=False, no_network=True, huge_tree=False,
+        info = self.member(name, limit=limit)
+        parser = etree.XMLParser(
+            target=target, resolve_entities=False, no_network=True, huge_tree=False,
             load_dtd=False, dtd_validation=False, attribute_defaults=False)
+        left = info.file_size
         try:
-            for _, el in events:
-                yield el
+            with self.zf.open(info) as fh:
+                while chunk := fh.read(_FEED):  # zipfile stops at the declared size
+                    if left == info.file_size and _has_doctype(chunk):
+                        self.dtd(name)
+                    left -= len(chunk)
+                    if left < 0:
+                        raise self.fail(
+                            f"3MF part '{name}' is longer than its zip entry says")
+                    self.budget -= len(chunk)
+                    parser.feed(chunk)
+            parser.close()
         except etree.XMLSyntaxError as exc:
             raise MeshFileError(f"cannot read '{self.path}' as 3MF: XMLSyntaxError "
                                 f"in part '{name}': {exc}") from exc
-        self.last_root = events.root
-        if events.root is not None and events.root.getroottree().docinfo.doctype:
-            raise self.fail(f"3MF part '{name}' has a document type declaration "
-                            "(DTD), which 3MF does not allow")
+
+    def dtd(self, name: str) -> None:
+        raise self.fail(f"3MF part '{name}' has a document type declaration "
+                        "(DTD), which 3MF does not allow")
 
 
 def _has_doctype(data: bytes) -> bool:
@@ -169,16 +196,42 @@ def _norm(name: str) -> str:
     return unquote(name).lstrip("/").lower()
 
 
+class _Target:
+    """Base of the lxml parser targets: refuses a document type declaration."""
+
+    def __init__(self, pkg: _Package, name: str) -> None:
+        self.pkg, self.name = pkg, name
+
+    def doctype(self, *args: Any) -> None:
+        self.pkg.dtd(self.name)
+
+    def close(self) -> None:
+        pass
+
+
+class _Rels(_Target):
+    """lxml parser target: the targets of 3D model relationships, in file order."""
+
+    def __init__(self, pkg: _Package, name: str) -> None:
+        super().__init__(pkg, name)
+        self.targets: list[str] = []
+
+    def start(self, tag: str, attrib: dict[str, str]) -> None:
+        if (tag.rpartition("}")[2] == "Relationship"
+                and attrib.get("Type", "").strip() == _MODEL_REL):
+            self.targets.append(attrib.get("Target", ""))
+
+
 def _model_part(pkg: _Package) -> str:
     """The root model part named in ``_rels/.rels`` (or the conventional one)."""
     if _norm("_rels/.rels") in pkg.members:
-        for el in pkg.xml("_rels/.rels", limit=1 << 20, tags=("{*}Relationship",)):
-            if el.get("Type", "").strip() == _MODEL_REL:
-                target = el.get("Target", "")
-                if _norm(target) not in pkg.members:
-                    raise pkg.fail(f"3MF holds no 3D model: _rels/.rels names "
-                                   f"'{target}', which the package does not contain")
-                return target
+        rels = _Rels(pkg, "_rels/.rels")
+        pkg.parse("_rels/.rels", limit=1 << 20, target=rels)
+        for target in rels.targets[:1]:
+            if _norm(target) not in pkg.members:
+                raise pkg.fail(f"3MF holds no 3D model: _rels/.rels names "
+                               f"'{target}', which the package does not contain")
+            return target
     if _norm("3D/3dmodel.model") in pkg.members:
         return "3D/3dmodel.model"
     raise pkg.fail("3MF holds no 3D model: no part is named in _rels/.rels as "
@@ -203,71 +256,182 @@ def _transform(pkg: _Package, text: str | None, where: str) -> NDArray[np.float6
     return t
 
 
-def _mesh(pkg: _Package, mesh: etree._Element, where: str) -> _Object:
-    # iterate each list's own children: mesh.iter() would walk both lists twice
-    vs, ts = mesh.find("{*}vertices"), mesh.find("{*}triangles")
-    verts = [] if vs is None else [
-        f"{e.get('x')} {e.get('y')} {e.get('z')}" for e in vs.iter("{*}vertex")]
-    tris = [] if ts is None else [
-        f"{e.get('v1')} {e.get('v2')} {e.get('v3')}" for e in ts.iter("{*}triangle")]
-    v = _numbers(" ".join(verts), np.float64, 3 * len(verts))
-    f = _numbers(" ".join(tris), np.int64, 3 * len(tris))
-    if v is None:
-        k = next(i for i, s in enumerate(verts) if _numbers(s, np.float64, 3) is None)
-        raise pkg.fail(f"{where}: vertex {k} has coordinates {verts[k]!r}; expected "
-                       "x, y and z numbers")
-    if f is None:
-        k = next(i for i, s in enumerate(tris) if _numbers(s, np.int64, 3) is None)
-        raise pkg.fail(f"{where}: triangle {k} has vertices {tris[k]!r}; expected "
-                       "v1, v2 and v3 indices")
-    v, f = v.reshape(-1, 3), f.reshape(-1, 3)
-    bad = np.flatnonzero(((f < 0) | (f >= v.shape[0])).any(axis=1))
-    if bad.size:
-        k = int(bad[0])
-        raise pkg.fail(f"{where}: triangle {k} refers to vertices {f[k].tolist()}, "
-                       f"but the object has {v.shape[0]} vertices")
-    return _Object(v, f)
-
-
-def _ref(pkg: _Package, el: etree._Element, part: str, where: str) -> Key:
+def _ref(pkg: _Package, attrib: dict[str, str], part: str, where: str) -> Key:
     """(part, object id) an item or component refers to."""
-    oid = el.get("objectid", "")
+    oid = attrib.get("objectid", "")
     if not oid.isdigit():
         raise pkg.fail(f"{where} has objectid {oid!r}; expected an object number")
-    target = el.get(f"{{{_PRODUCTION}}}path")
+    target = attrib.get(f"{{{_PRODUCTION}}}path")
     return (_norm(target) if target else part, int(oid))
+
+
+# each list of a <mesh>: (its element, attributes, number type, wording, limit name)
+_LISTS = {
+    "vertices": ("vertex", ("x", "y", "z"), np.float64, "coordinates",
+                 "x, y and z numbers", "MAX_BUILD_VERTICES"),
+    "triangles": ("triangle", ("v1", "v2", "v3"), np.int64, "vertices",
+                  "v1, v2 and v3 indices", "MAX_BUILD_TRIANGLES"),
+}
+
+
+class _Reading:
+    """An ``<object>`` being read; its mesh lists stream into number chunks."""
+
+    def __init__(self, oid: str, where: str) -> None:
+        self.oid, self.where = oid, where
+        self.mesh = 0  # 0 before its first <mesh>, 1 inside it, 2 after it
+        self.mesh_depth = 0
+        self.chunks: dict[str, list[NDArray[Any]]] = {"vertices": [],
+                                                      "triangles": []}
+        self.n = {"vertices": 0, "triangles": 0}
+        self.seen: set[str] = set()  # the lists read (only a mesh's first of each)
+        self.components: list[tuple[Key, NDArray[np.float64]]] = []
+
+
+class _ModelReader(_Target):
+    """lxml parser target: the objects (and, in the root part, the build) of a part.
+
+    ``<vertex>`` and ``<triangle>`` attributes are kept as text for at most
+    :data:`_CHUNK` elements, then parsed to numbers; the counts are checked
+    against :data:`MAX_BUILD_VERTICES` and :data:`MAX_BUILD_TRIANGLES` as they
+    grow, so a hostile part is refused before its numbers cost memory.
+    """
+
+    def __init__(self, pkg: _Package, name: str, *, root: bool) -> None:
+        super().__init__(pkg, name)
+        self.part, self.root = _norm(name), root
+        self.stack: list[str] = []  # local names of the open elements
+        self.objects: list[_Reading] = []  # open objects, innermost last
+        self.list: str | None = None  # the mesh list being streamed
+        self.list_depth = 0
+        self.element = ""  # its element: vertex or triangle
+        self.names: tuple[str, ...] = ()
+        self.buf: list[str] = []
+        self.build = 0  # open <build> elements
+
+    def start(self, tag: str, attrib: dict[str, str],
+              nsmap: dict[str, str] | None = None) -> None:
+        local = tag[tag.rfind("}") + 1:]
+        if local == self.element:  # the hot path: a vertex or a triangle
+            a, b, c = self.names
+            get = attrib.get
+            self.buf.append(f"{get(a)} {get(b)} {get(c)}")
+            if len(self.buf) >= _CHUNK:
+                self.flush()
+            return
+        stack = self.stack
+        parent = stack[-1] if stack else ""
+        stack.append(local)
+        if len(stack) == 1:
+            _model_attributes(self.pkg, local, attrib, nsmap or {}, self.name,
+                              root=self.root)
+        elif local == "object":
+            self.open_object(attrib)
+        elif local == "build":
+            self.build += 1
+        elif local == "item" and self.build and self.root:
+            pkg = self.pkg
+            where = f"build item {len(pkg.items) + 1}"
+            pkg.items.append((_ref(pkg, attrib, self.part, where),
+                              _transform(pkg, attrib.get("transform"), where)))
+        if not self.objects or local in ("object", "build", "item"):
+            return
+        grand = stack[-3] if len(stack) >= 3 else ""
+        obj = self.objects[-1]
+        if local == "mesh" and parent == "object" and obj.mesh == 0:
+            obj.mesh, obj.mesh_depth = 1, len(stack)
+        elif (local in _LISTS and parent == "mesh" and grand == "object"
+              and obj.mesh == 1 and len(stack) == obj.mesh_depth + 1
+              and self.list is None and local not in obj.seen):
+            obj.seen.add(local)
+            self.list, self.list_depth = local, len(stack)
+            self.element, self.names = _LISTS[local][:2]
+        elif local == "component" and parent == "components" and grand == "object":
+            pkg = self.pkg
+            cw = f"component {len(obj.components)} of {obj.where}"
+            obj.components.append((_ref(pkg, attrib, self.part, cw),
+                                   _transform(pkg, attrib.get("transform"), cw)))
+
+    def end(self, tag: str) -> None:
+        local = tag[tag.rfind("}") + 1:]
+        if local == self.element:
+            return
+        depth = len(self.stack)
+        self.stack.pop()
+        if self.list is not None and depth == self.list_depth:
+            self.flush()
+            self.list, self.element, self.names = None, "", ()
+        elif local == "object" and self.objects:
+            self.close_object(self.objects.pop())
+        elif local == "mesh" and self.objects:
+            obj = self.objects[-1]
+            if obj.mesh == 1 and depth == obj.mesh_depth:
+                obj.mesh = 2
+        elif local == "build":
+            self.build -= 1
+
+    def open_object(self, attrib: dict[str, str]) -> None:
+        pkg = self.pkg
+        oid = attrib.get("id", "")
+        if not oid.isdigit():
+            raise pkg.fail(f"an object in '{self.name}' has id {oid!r}; expected a "
+                           "number")
+        where = f"object {oid}" + ("" if self.part == pkg.root else
+                                   f" of '{self.name}'")
+        if (self.part, int(oid)) in pkg.objects or any(
+                o.oid == oid for o in self.objects):
+            raise pkg.fail(f"{where} is defined twice")
+        self.objects.append(_Reading(oid, where))
+
+    def flush(self) -> None:
+        """Parse the buffered elements of the open list to numbers."""
+        buf, kind = self.buf, self.list
+        if not buf or kind is None:
+            return
+        obj, pkg = self.objects[-1], self.pkg
+        element, _, dtype, what, expected, limit_name = _LISTS[kind]
+        a = _numbers(" ".join(buf), dtype, 3 * len(buf))
+        if a is None:
+            k = next(i for i, s in enumerate(buf) if _numbers(s, dtype, 3) is None)
+            raise pkg.fail(f"{obj.where}: {element} {obj.n[kind] + k} has {what} "
+                           f"{buf[k]!r}; expected {expected}")
+        obj.chunks[kind].append(a)
+        obj.n[kind] += len(buf)
+        pkg.counts[element] += len(buf)
+        buf.clear()
+        limit = globals()[limit_name]
+        if pkg.counts[element] > limit:
+            raise pkg.fail(
+                f"the 3MF objects hold more than {limit:,} {kind} ({obj.where} "
+                f"reaches {pkg.counts[element]:,} in all); vecslice reads at most "
+                f"{limit:,} (vecslice.threemf.{limit_name})")
+
+    def close_object(self, obj: _Reading) -> None:
+        pkg = self.pkg
+        v, f = (np.concatenate(obj.chunks[k]) if obj.chunks[k] else np.empty(0)
+                for k in _LISTS)
+        v, f = v.reshape(-1, 3), f.astype(np.int64, copy=False).reshape(-1, 3)
+        bad = np.flatnonzero(((f < 0) | (f >= v.shape[0])).any(axis=1))
+        if bad.size:
+            k = int(bad[0])
+            raise pkg.fail(f"{obj.where}: triangle {k} refers to vertices "
+                           f"{f[k].tolist()}, but the object has {v.shape[0]} "
+                           "vertices")
+        pkg.objects[(self.part, int(obj.oid))] = _Object(v, f, obj.components)
 
 
 def _parse_part(pkg: _Package, name: str, *, root: bool) -> None:
     """Read the objects (and, for the root part, the build) of model part ``name``."""
-    part = _norm(name)
-    pkg.parsed.add(part)
-    seen_root = False
-    for el in pkg.xml(name, limit=MAX_MODEL_BYTES, tags=("{*}object", "{*}build")):
-        if not seen_root:
-            seen_root = True
-            _model_attributes(pkg, el.getroottree().getroot(), name, root=root)
-        if el.tag.endswith("}object"):
-            _object(pkg, el, part, name)
-        elif root:
-            for item in el.iter("{*}item"):
-                where = f"build item {len(pkg.items) + 1}"
-                pkg.items.append((_ref(pkg, item, part, where),
-                                  _transform(pkg, item.get("transform"), where)))
-        # drop the objects read before this one (memory stays near one object);
-        # the last one goes with the document, which frees faster than clear()
-        while el.getprevious() is not None:
-            del el.getparent()[0]
-    if not seen_root and pkg.last_root is not None:
-        _model_attributes(pkg, pkg.last_root, name, root=root)
+    pkg.parsed.add(_norm(name))
+    pkg.parse(name, limit=MAX_MODEL_BYTES, target=_ModelReader(pkg, name, root=root))
 
 
-def _model_attributes(pkg: _Package, el: etree._Element, name: str, *,
-                      root: bool) -> None:
-    if el.tag.rsplit("}", 1)[-1] != "model":
+def _model_attributes(pkg: _Package, local: str, attrib: dict[str, str],
+                      nsmap: dict[str, str], name: str, *, root: bool) -> None:
+    if local != "model":
         raise pkg.fail(f"3MF part '{name}' is not a 3D model (its root element is "
-                       f"<{el.tag.rsplit('}', 1)[-1]}>, not <model>)")
-    unit = el.get("unit", "millimeter")
+                       f"<{local}>, not <model>)")
+    unit = attrib.get("unit", "millimeter")
     if unit not in UNITS:
         raise pkg.fail(f"3MF unit must be one of {', '.join(UNITS)}; got {unit!r}")
     if root:
@@ -275,29 +439,11 @@ def _model_attributes(pkg: _Package, el: etree._Element, name: str, *,
     elif unit != pkg.unit:
         raise pkg.fail(f"3MF part '{name}' is in {unit}s, the root model in "
                        f"{pkg.unit}s; vecslice reads parts in one unit only")
-    for prefix in el.get("requiredextensions", "").split():
-        ns = el.nsmap.get(prefix)
+    for prefix in attrib.get("requiredextensions", "").split():
+        ns = nsmap.get(prefix)
         if ns not in _READABLE:
             raise pkg.fail(f"3MF requires the extension {ns or prefix!r}, which "
                            "vecslice does not read")
-
-
-def _object(pkg: _Package, el: etree._Element, part: str, name: str) -> None:
-    oid = el.get("id", "")
-    if not oid.isdigit():
-        raise pkg.fail(f"an object in '{name}' has id {oid!r}; expected a number")
-    key = (part, int(oid))
-    where = f"object {oid}" + ("" if part == pkg.root else f" of '{name}'")
-    if key in pkg.objects:
-        raise pkg.fail(f"{where} is defined twice")
-    mesh = el.find("{*}mesh")
-    obj = _mesh(pkg, mesh, where) if mesh is not None else _Object(
-        np.empty((0, 3)), np.empty((0, 3), dtype=np.int64))
-    for k, c in enumerate(el.iterfind("{*}components/{*}component")):
-        cw = f"component {k} of {where}"
-        obj.components.append((_ref(pkg, c, part, cw),
-                               _transform(pkg, c.get("transform"), cw)))
-    pkg.objects[key] = obj
 
 
 def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
@@ -319,6 +465,7 @@ def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
             raise pkg.fail(f"{where} refers to object {key[1]}, which is not defined")
 
     tri: dict[Key, int] = {}
+    vert: dict[Key, int] = {}
     inst: dict[Key, int] = {}
     active: list[Key] = []
     for n, (key, _) in enumerate(pkg.items):
@@ -335,6 +482,8 @@ def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
                 active.pop()
                 o = pkg.objects[node]
                 tri[node] = o.faces.shape[0] + sum(tri[c] for c, _ in children(node))
+                vert[node] = (o.vertices.shape[0] if o.faces.shape[0] else 0) + sum(
+                    vert[c] for c, _ in children(node))
                 inst[node] = 1 + sum(inst[c] for c, _ in children(node))
                 continue
             ck = child[0]
@@ -347,11 +496,16 @@ def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
                 stack.append((ck, iter(children(ck))))
                 active.append(ck)
     n_tri = sum(tri[k] for k, _ in pkg.items)
+    n_vert = sum(vert[k] for k, _ in pkg.items)
     n_inst = sum(inst[k] for k, _ in pkg.items)
-    if n_tri > MAX_TRIANGLES:
+    if n_tri > MAX_BUILD_TRIANGLES:
         raise pkg.fail(f"the 3MF build expands to {n_tri:,} triangles; vecslice "
-                       f"reads at most {MAX_TRIANGLES:,} "
-                       "(vecslice.meshfile.MAX_TRIANGLES)")
+                       f"reads at most {MAX_BUILD_TRIANGLES:,} "
+                       "(vecslice.threemf.MAX_BUILD_TRIANGLES)")
+    if n_vert > MAX_BUILD_VERTICES:
+        raise pkg.fail(f"the 3MF build expands to {n_vert:,} vertices; vecslice "
+                       f"reads at most {MAX_BUILD_VERTICES:,} "
+                       "(vecslice.threemf.MAX_BUILD_VERTICES)")
     if n_inst > MAX_INSTANCES:
         raise pkg.fail(f"the 3MF build expands to {n_inst:,} object placements; "
                        f"vecslice reads at most {MAX_INSTANCES:,} "
@@ -388,20 +542,26 @@ def read_3mf(path: Path, size: int) -> tuple[NDArray[np.float64], NDArray[np.int
         if not pkg.items:
             raise pkg.fail("the 3MF build places no objects (no <build> <item>)")
         placed = _expand(pkg)
-    verts: list[NDArray[np.float64]] = []
-    faces: list[NDArray[np.int64]] = []
-    base = 0
+    # written in place: memory is the result's, with no per-placement copies
+    n_v = sum(pkg.objects[k].vertices.shape[0] * len(w) for k, w in placed)
+    n_f = sum(pkg.objects[k].faces.shape[0] * len(w) for k, w in placed)
+    v_out = np.empty((n_v, 3))
+    f_out = np.empty((n_f, 3), dtype=np.int64)
+    base = at = 0
     for key, worlds in placed:
         o = pkg.objects[key]
         w = np.stack(worlds)  # (K, 4, 4)
-        v = np.einsum("vi,kij->kvj", o.vertices, w[:, :3, :3]) + w[:, None, 3, :3]
+        nv, nf = o.vertices.shape[0], o.faces.shape[0]
+        v = v_out[base : base + len(worlds) * nv].reshape(len(worlds), nv, 3)
+        np.einsum("vi,kij->kvj", o.vertices, w[:, :3, :3], out=v)
+        v += w[:, None, 3, :3]
+        f = f_out[at : at + len(worlds) * nf].reshape(len(worlds), nf, 3)
+        f[:] = o.faces
         mirror = np.linalg.det(w[:, :3, :3]) < 0  # a mirror turns the winding over
-        f = np.where(mirror[:, None, None], o.faces[None, :, ::-1], o.faces[None])
-        f = f + (base + o.vertices.shape[0] * np.arange(len(worlds)))[:, None, None]
-        verts.append(v.reshape(-1, 3))
-        faces.append(f.reshape(-1, 3))
-        base += v.shape[0] * v.shape[1]
-    if not faces:
-        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
-    v = np.concatenate(verts) * UNITS[pkg.unit]
-    return v, np.concatenate(faces)
+        f[mirror] = o.faces[:, ::-1]
+        f += (base + nv * np.arange(len(worlds)))[:, None, None]
+        base += len(worlds) * nv
+        at += len(worlds) * nf
+    if UNITS[pkg.unit] != 1.0:
+        v_out *= UNITS[pkg.unit]
+    return v_out, f_out

@@ -1,5 +1,6 @@
 """load_mesh(..., compat="cura"): CuraEngine's STL reading (vecslice/cura_stl.py)."""
 
+import os
 import struct
 import warnings
 from pathlib import Path
@@ -231,3 +232,58 @@ def test_bad_arguments(tmp_path, meshes_dir):
         vs.load_mesh(3, compat="cura")
     with pytest.raises(vs.MeshFileError, match="directory"):
         vs.load_mesh(tmp_path, compat="cura")
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes")
+def test_pipe_and_device_are_refused_without_reading(tmp_path):
+    # audit s23 D5: compat='cura' read a FIFO forever and /dev/zero to MemoryError
+    fifo = tmp_path / "fifo.stl"
+    os.mkfifo(fifo)
+    zero = tmp_path / "zero.stl"
+    zero.symlink_to("/dev/zero")
+    for p in (fifo, zero):
+        with pytest.raises(vs.MeshFileError, match=rf"'.*{p.name}' is not a regular "
+                           r"file \(a device or pipe\?\)") as info:
+            vs.load_mesh(p, compat="cura")
+        assert isinstance(info.value, OSError)
+
+
+def test_symlink_loop_and_broken_link_are_named(tmp_path):
+    # audit s23 D13: compat='cura' called a symbolic link loop "not found"
+    a, b = tmp_path / "a.stl", tmp_path / "b.stl"
+    a.symlink_to(b)
+    b.symlink_to(a)
+    with pytest.raises(vs.MeshFileError, match=r"'.*a\.stl' is a symbolic link loop"):
+        vs.load_mesh(a, compat="cura")
+    c = tmp_path / "c.stl"
+    c.symlink_to(tmp_path / "gone.stl")
+    with pytest.raises(vs.MeshFileError, match=r"'.*c\.stl' is a broken symbolic "
+                       r"link: its target '.*gone\.stl' does not exist"):
+        vs.load_mesh(c, compat="cura")
+
+
+@pytest.mark.parametrize("bad", [99, 4, -2, -1])
+def test_trimesh_face_indices_are_checked(bad):
+    # audit s23 D7: -2 wrapped to vertex 2, 99 raised a raw numpy IndexError
+    v = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]]
+    f = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, bad]])
+    tm = trimesh.Trimesh(v, f, process=False)
+    for compat in ("vecslice", "cura"):
+        with pytest.raises(vs.InputValueError, match=rf"`faces` must index vertices "
+                           rf"in \[0, 4\); got {bad} at face 3") as info:
+            vs.load_mesh(tm, compat=compat)
+        assert isinstance(info.value, ValueError)
+
+
+def test_trimesh_scene_face_indices_are_checked():
+    # an index past one geometry's vertices would pick another geometry's vertex
+    v = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]]
+    good = trimesh.Trimesh(v, [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
+                           process=False)
+    bad = trimesh.Trimesh(v, [[0, 2, 1], [0, 1, 5]], process=False)
+    scene = trimesh.Scene({"bad": bad, "good": good})
+    for compat in ("vecslice", "cura"):
+        with pytest.raises(vs.InputValueError, match=r"`faces` of scene geometry "
+                           r"'bad' must index its vertices in \[0, 4\); got 5 at "
+                           r"face 1"):
+            vs.load_mesh(scene, compat=compat)

@@ -325,6 +325,63 @@ def test_off_loads(tmp_path):
     assert m.n_faces == 2
 
 
+TET_PLY = ("ply\nformat ascii 1.0\nelement vertex {nv}\nproperty float x\n"
+           "property float y\nproperty float z\nelement face {nf}\n"
+           "property list {ct} {it} vertex_indices\nend_header\n")
+TET_V = "0 0 0\n10 0 0\n0 10 0\n0 0 10\n"
+TET_F = "3 0 2 1\n3 0 1 3\n3 1 2 3\n3 0 3 2\n"
+
+
+def tet_ply(nv=4, nf=4, body=TET_V + TET_F, ct="uchar", it="int"):
+    return TET_PLY.format(nv=nv, nf=nf, ct=ct, it=it) + body
+
+
+def test_ascii_ply_and_off_counts_match_the_body(tmp_path):
+    # audit s23 D6: truncated or lying ASCII PLY and OFF loaded as partial meshes
+    assert vs.load_mesh(write(tmp_path, "ok.ply", tet_ply()), repair=False).n_faces == 4
+    assert vs.load_mesh(write(tmp_path, "crlf.ply", tet_ply().replace(
+        "\n", "\r\n") + "\n \n"), repair=False).n_faces == 4
+    refused(write(tmp_path, "lie.ply", tet_ply(nv=5)),
+            r"lie\.ply' is truncated or corrupt: its PLY header announces 5 'vertex' "
+            r"and 4 'face' elements \(9 lines\), but 8 lines of numbers follow it")
+    refused(write(tmp_path, "cut.ply", tet_ply()[:-9]),
+            r"cut\.ply' is truncated or corrupt: .* but 7 lines of numbers follow it")
+    refused(write(tmp_path, "cutrow.ply", tet_ply()[:-3] + "\n"),
+            r"cutrow\.ply' is truncated or corrupt: PLY 'face' 3 \(line 17\) has 3 "
+            r"values; its header's properties need 4")
+    refused(write(tmp_path, "long.ply", tet_ply(body=TET_V + TET_F + "3 0 1 2\n")),
+            r"long\.ply' is truncated or corrupt: .*9 lines of numbers follow it")
+    refused(write(tmp_path, "word.ply", tet_ply(body=TET_V.replace("10", "ten", 1)
+                                                + TET_F)),
+            r"word\.ply' is corrupt: 'ten' where a number should be")
+    off = "OFF\n4 4 0\n" + TET_V + TET_F
+    commented = "# by hand\n# two lines\n" + off.replace("\n3 0 2", " # c\n3 0 2")
+    for label, text in [("ok", off), ("commented", commented)]:
+        m = vs.load_mesh(write(tmp_path, f"{label}.off", text), repair=False)
+        assert m.n_faces == 4 and m.is_watertight, label
+    refused(write(tmp_path, "cut.off", "# c\n" + off[:-8]),
+            r"cut\.off' is truncated or corrupt: its OFF header announces 4 vertices "
+            r"and 4 faces \(8 lines\), but 7 lines of numbers follow it")
+    refused(write(tmp_path, "huge.off", "# comment first\nOFF\n4 1000000000000 0\n"
+                  + TET_V + TET_F), r"huge\.off' announces 1,000,000,000,000 faces")
+    refused(write(tmp_path, "short.off", off.replace("3 1 2 3", "3 1 2")),
+            r"short\.off' is corrupt: OFF face 2 has 3 numbers and announces 3 "
+            r"corners")
+    refused(write(tmp_path, "nooff.off", "4 4 0\n" + TET_V + TET_F),
+            r"nooff\.off' is not an OFF file")
+
+
+def test_ply_faces_need_integer_indices_and_three_corners(tmp_path):
+    # audit s23 D12: 1.7 was read as vertex 1; a 2-vertex face was dropped
+    refused(write(tmp_path, "f.ply", tet_ply(it="float")),
+            r"f\.ply' is corrupt: PLY face list property 'vertex_indices' must have "
+            r"integer types \(vertex indices\); got 'uchar' counts and 'float' values")
+    refused(write(tmp_path, "two.ply", tet_ply(body=TET_V + TET_F.replace(
+        "3 1 2 3", "2 1 2"))),
+            r"two\.ply' is corrupt: PLY 'face' 2 \(line 16\) has a list of 2 values; "
+            r"a face needs at least 3 vertices")
+
+
 # ---------------------------------------------------------------------------
 # D6: nothing printed for files that load
 # ---------------------------------------------------------------------------
@@ -390,3 +447,34 @@ def test_scale_that_collapses_every_face_is_named(tmp_path):
     p = write(tmp_path, "tiny.obj", V3 + "f 1 2 3\n")
     refused(p, r"tiny\.obj': .* all 1 faces have two corners at the same position at "
             r"scale 0\.0001 \(file units to mm\): is the scale right\?", scale=1e-4)
+
+
+def test_ascii_stl_and_obj_numbers_with_underscores_are_refused(tmp_path):
+    # audit s23 D12: Python's float() read '1_0' as 10
+    refused(write(tmp_path, "u.stl", TRI_STL.replace(b"vertex 1 0 0", b"vertex 1_0 0 0")
+                  % (b"x", b"x")), r"u\.stl' is corrupt: vertex 2 has '1_0' where a "
+            r"number should be")
+    refused(write(tmp_path, "u.obj", "v 0 0 0\nv 1_0 0 0\nv 0 1 0\nf 1 2 3\n"),
+            r"u\.obj' is corrupt: vertex 2 has '1_0' where a number should be")
+
+
+@pytest.mark.parametrize("sep", ["\v", "\f"])
+def test_obj_face_with_other_whitespace_separates_indices(tmp_path, sep):
+    # audit s23 D13: "cannot read ... as OBJ: StopIteration: "
+    m = vs.load_mesh(write(tmp_path, "w.obj", f"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+                           f"f 1 2{sep}4 3\n"), repair=False)
+    assert m.n_faces == 2
+
+
+@pytest.mark.parametrize(("ext", "text"), [
+    ("stl", TRI_STL.decode() % ("x", "x")),
+    ("obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+    ("ply", "ply\nformat ascii 1.0\nelement vertex 0\nend_header\n"),
+    ("off", "OFF\n0 0 0\n"),
+])
+@pytest.mark.parametrize("codec", ["utf-16", "utf-16-le"])
+def test_utf16_text_is_named(tmp_path, ext, text, codec):
+    # audit s23 D13: a UTF-16 STL reported a binary header's count
+    refused(write(tmp_path, f"t.{ext}", text.encode(codec)),
+            r"t\." + ext + r"' .*\(it looks like UTF-16 text; save it as ASCII or "
+            r"UTF-8\)")

@@ -3,6 +3,8 @@ packages. Every package is generated here."""
 
 import io
 import struct
+import subprocess
+import sys
 import tracemalloc
 import zipfile
 
@@ -234,7 +236,8 @@ def test_absurd_expansion_is_refused_before_placing(tmp_path):
         components_object(k + 1, [(k, None, "")] * 10) for k in range(1, 11))
     err = refused(tmp_path, model(res, [(11, None)]),
                   r"the 3MF build expands to 40,000,000,000 triangles; vecslice "
-                  r"reads at most 100,000,000 \(vecslice\.meshfile\.MAX_TRIANGLES\)")
+                  r"reads at most 30,000,000 "
+                  r"\(vecslice\.threemf\.MAX_BUILD_TRIANGLES\)")
     assert err.__cause__ is None
 
 
@@ -244,6 +247,77 @@ def test_absurd_placement_count_is_refused(tmp_path, monkeypatch):
         components_object(k + 1, [(k, None, "")] * 10) for k in range(1, 4))
     refused(tmp_path, model(res, [(4, None)]),
             r"expands to 1,111 object placements; vecslice reads at most 1,000")
+
+
+def _many_vertices(n, seed=0):
+    """A vertex list of n varied coordinates (compresses about 5 times)."""
+    xyz = np.random.default_rng(seed).integers(0, 1000, (n, 3))
+    return [tuple(r) for r in xyz.tolist()]
+
+
+def test_vertex_count_is_refused_while_streaming(tmp_path, monkeypatch):
+    # audit s23 D1: a small 3MF must not build per-vertex objects before a cap
+    monkeypatch.setattr("vecslice.threemf.MAX_BUILD_VERTICES", 1000)
+    path = write_3mf(tmp_path / "v.3mf", model(
+        mesh_object(1, v=_many_vertices(200_000), f=[(0, 1, 2)]), [(1, None)]))
+    with pytest.raises(vs.MeshFileError, match=r"v\.3mf': the 3MF objects hold more "
+                       r"than 1,000 vertices \(object 1 reaches 65,536 in all\); "
+                       r"vecslice reads at most 1,000 "
+                       r"\(vecslice\.threemf\.MAX_BUILD_VERTICES\)"):
+        vs.load_mesh(path)
+    assert _peak_mib(lambda: _refuse(path)) < 12  # one chunk, not 200,000 strings
+
+
+def test_triangle_count_is_refused_while_streaming(tmp_path, monkeypatch):
+    monkeypatch.setattr("vecslice.threemf.MAX_BUILD_TRIANGLES", 15)
+    refused(tmp_path, model(mesh_object(1, f=TET_F * 3) + mesh_object(2, f=TET_F * 2),
+                            [(1, None)]),
+            r"the 3MF objects hold more than 15 triangles \(object 2 reaches 20 in "
+            r"all\); vecslice reads at most 15 "
+            r"\(vecslice\.threemf\.MAX_BUILD_TRIANGLES\)")
+
+
+def test_expanded_vertex_count_is_refused_before_placing(tmp_path, monkeypatch):
+    # audit s23 D2: one triangle over 1000 vertices, placed 10,000 times
+    monkeypatch.setattr("vecslice.threemf.MAX_BUILD_VERTICES", 1_000_000)
+    res = mesh_object(1, v=_many_vertices(1000), f=[(0, 1, 2)]) + "".join(
+        components_object(k + 1, [(k, None, "")] * 10) for k in range(1, 5))
+    refused(tmp_path, model(res, [(5, None)]),
+            r"the 3MF build expands to 10,000,000 vertices; vecslice reads at most "
+            r"1,000,000 \(vecslice\.threemf\.MAX_BUILD_VERTICES\)")
+    load(tmp_path, model(res, [(4, None)]), name="ok.3mf")  # 1,000,000 loads
+
+
+def test_default_expansion_cap_refuses_a_hundred_million_triangles(tmp_path):
+    # audit s23 D2: 11 kB placing a 1000-triangle strip 100,000 times was read
+    strip = mesh_object(1, v=[(i, i % 2, 0) for i in range(1002)],
+                        f=[(i, i + 1, i + 2) for i in range(1000)])
+    res = strip + "".join(
+        components_object(k + 1, [(k, None, "")] * 10) for k in range(1, 6))
+    path = write_3mf(tmp_path / "c.3mf", model(res, [(6, None)]))
+    assert path.stat().st_size < 20_000
+    with pytest.raises(vs.MeshFileError, match=r"expands to 100,000,000 triangles; "
+                       r"vecslice reads at most 30,000,000"):
+        vs.load_mesh(path)
+    assert _peak_mib(lambda: _refuse(path)) < 8
+
+
+def test_vertices_are_streamed_not_built_as_a_tree(tmp_path):
+    # audit s23 D1: 20 MB of <vertex> XML took about 37 bytes of memory per byte
+    # (libxml2's tree, which tracemalloc does not see): measure the process
+    path = write_3mf(tmp_path / "big.3mf", model(
+        mesh_object(1, v=_many_vertices(700_000), f=[(0, 1, 2)]), [(1, None)]))
+    code = (
+        "import resource, sys\n"
+        "from pathlib import Path\n"
+        "from vecslice.threemf import read_3mf\n"
+        "before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
+        "v, f = read_3mf(Path(sys.argv[1]), 0)\n"
+        "assert v.shape == (700_000, 3), v.shape\n"
+        "print((resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) >> 10)\n")
+    out = subprocess.run([sys.executable, "-c", code, str(path)], check=True,
+                         capture_output=True, text=True).stdout
+    assert int(out) < 150  # MiB; the coordinates alone are 16 MiB
 
 
 def test_component_cycle_is_refused(tmp_path):
