@@ -52,6 +52,16 @@ def _rows(body: bytes) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     return counts.astype(np.int64), lines.astype(np.int64)
 
 
+def _body_numbers(path: Path, body: bytes, n: int) -> NDArray[np.float64]:
+    """The ``n`` numbers of an ASCII body, or an error naming the first that is not."""
+    vals = _mf()._numbers(body, np.float64, n)
+    if vals is None:
+        tok = next(t for t in body.split() if _mf()._numbers(t, np.float64, 1) is None)
+        raise MeshFileError(f"'{path}' is corrupt: {tok.decode('latin-1')!r} where "
+                            "a number should be")
+    return vals
+
+
 def _check_rows(path: Path, body: bytes, first_line: int, fmt: str,
                 elements: list[tuple[str, int, list[bool], list[bool]]]) -> None:
     """Check an ASCII body row by row against the elements its header announces.
@@ -69,11 +79,7 @@ def _check_rows(path: Path, body: bytes, first_line: int, fmt: str,
             f"'{path}' is truncated or corrupt: its {fmt} header announces {desc} "
             f"elements ({announced:,} lines), but {per_row.shape[0]:,} lines of "
             "numbers follow it")
-    vals = _mf()._numbers(body, np.float64, int(per_row.sum()))
-    if vals is None:
-        tok = next(t for t in body.split() if _mf()._numbers(t, np.float64, 1) is None)
-        raise MeshFileError(f"'{path}' is corrupt: {tok.decode('latin-1')!r} where "
-                            "a number should be")
+    vals = _body_numbers(path, body, int(per_row.sum()))
     begin = np.cumsum(per_row) - per_row
     row0 = 0
     for name, count, props, polygon_props in elements:
@@ -213,11 +219,7 @@ def _off_header(path: Path, data: bytes) -> bytes:
             f"'{path}' is truncated or corrupt: its OFF header announces {nv:,} "
             f"vertices and {nf:,} faces ({nv + nf:,} lines), but "
             f"{per_row.shape[0]:,} lines of numbers follow it")
-    vals = _mf()._numbers(body, np.float64, int(per_row.sum()))
-    if vals is None:
-        tok = next(t for t in body.split() if _mf()._numbers(t, np.float64, 1) is None)
-        raise MeshFileError(f"'{path}' is corrupt: {tok.decode('latin-1')!r} where "
-                            "a number should be")
+    vals = _body_numbers(path, body, int(per_row.sum()))
     begin = np.cumsum(per_row) - per_row
     short = np.flatnonzero(per_row[:nv] < 3)
     if short.size:
