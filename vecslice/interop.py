@@ -45,6 +45,21 @@ def to_shapely(parts: Any, k: int, *, scale: float = 1e-3) -> Any:
     shapely.MultiPolygon
         One polygon per part, rings closed as shapely requires.
 
+    Notes
+    -----
+    The rings are the union's (Clipper2, through manifold3d) rounded to whole
+    µm. As in CuraEngine, a ring may touch itself or another ring at a vertex,
+    which is a valid Clipper polygon but not a valid OGC one, so shapely's
+    ``is_valid`` can be False. On the shared meshes with the default settings
+    that happens in about a third of the layers of the broken
+    ``openscad-nonmanifold-crash.obj`` (where rounding also leaves a 1 µm² hole
+    just outside its outline) and in no layer of the others; with
+    ``slicing_tolerance`` 'inclusive' or 'exclusive', in a layer here and
+    there (one of 3DBenchy's 478). Where a shapely
+    operation needs valid input, call ``shapely.make_valid`` first; its area
+    can differ from :meth:`~vecslice.layerparts.LayerParts.layer_areas`, which
+    sums the rings' signed areas as CuraEngine does.
+
     Examples
     --------
     >>> from vecslice.layerparts import LayerParts

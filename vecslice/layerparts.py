@@ -127,7 +127,11 @@ class PartsLayout(RaggedContainer):
         return out / 2.0
 
     def to_shapely(self, i: int) -> Any:
-        """Layer ``i`` as a shapely MultiPolygon in millimetres (needs shapely)."""
+        """Layer ``i`` as a shapely MultiPolygon in millimetres (needs shapely).
+
+        Clipper's rings may touch at vertices, which shapely's ``is_valid``
+        refuses: see :func:`vecslice.interop.to_shapely`.
+        """
         from vecslice.interop import to_shapely
 
         return to_shapely(self, check_index(i, self.n_layers, "i", "layer index"))
