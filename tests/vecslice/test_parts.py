@@ -9,6 +9,7 @@ import trimesh
 from hypothesis import given
 from hypothesis import strategies as st
 
+import vecslice as vs
 from vecslice import InputTypeError, LayerPaths, SettingsError
 from vecslice._kernels.rings import ring_area2
 from vecslice.interop import to_shapely
@@ -203,15 +204,14 @@ def test_trimesh_cross_sections():
     check_invariants(parts)
     assert np.diff(parts.part_offsets).tolist() == [2, 1]  # ring + hole, then disc
     assert layer_area2(parts)[0] == 2 * want.area
-    # the input's vertices, exactly, but for those strictly between their two
-    # neighbours on a line (the union removes collinear points: SLICING.md)
+    # the input's vertices, exactly, but for those on a line with their two
+    # neighbours (the union removes collinear points: SLICING.md)
     kept = set()
     for r in rings:
         d0 = r - np.roll(r, 1, axis=0)
         d1 = np.roll(r, -1, axis=0) - r
-        straight = (d0[:, 0] * d1[:, 1] == d0[:, 1] * d1[:, 0]) & (
-            (d0 * d1).sum(axis=1) > 0)
-        kept |= {tuple(v) for v in r[~straight].tolist()}
+        collinear = d0[:, 0] * d1[:, 1] == d0[:, 1] * d1[:, 0]
+        kept |= {tuple(v) for v in r[~collinear].tolist()}
     assert {tuple(v) for v in parts.coords.tolist()} == kept
 
 
@@ -232,6 +232,45 @@ def test_union_removes_collinear_points():
             cross = d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0]
             assert (cross != 0).all(), (mode, ring.tolist())
         assert [len(r) for r in out.layer(0)] == [4]  # 30 x 10, or 10 x 10
+
+
+def test_rounded_union_output_loses_its_spikes():
+    """A sliver in the union's float output can round to a zero-width spike
+    (out and back along one line); its tip is a collinear point, removed like
+    CuraEngine's union removes every vertex whose neighbours' slopes are equal,
+    and then its base vertices repeat and go too."""
+    from vecslice.parts import _dedupe, _vertex_keys
+
+    square = [[0, 0], [10, 0], [10, 10], [0, 10]]
+    spiked = [[0, 0], [10, 0], [10, 10], [5, 10], [5, 25], [5, 10], [0, 10]]
+    # a spike whose way back stops short of its base, and one along an edge
+    short = [[0, 0], [10, 0], [10, 10], [5, 10], [5, 25], [5, 12], [4, 10], [0, 10]]
+    along = [[0, 0], [10, 0], [10, 10], [20, 10], [10, 10], [0, 10]]
+    rings = [np.array(r, dtype=np.int64) for r in (spiked, short, along, square)]
+    coords = np.concatenate(rings)
+    lens = np.array([len(r) for r in rings], dtype=np.int64)
+    out, key, out_lens = _dedupe(coords, _vertex_keys(coords), lens)
+    assert np.array_equal(key, _vertex_keys(out))
+    got = np.split(out, np.cumsum(out_lens)[:-1])
+    assert got[0].tolist() == square
+    assert got[1].tolist() == [[0, 0], [10, 0], [10, 10], [5, 10], [5, 12], [4, 10],
+                               [0, 10]]  # (5, 25) goes; (5, 12) turns a corner
+    assert got[2].tolist() == square
+    assert got[3].tolist() == square
+
+
+def test_no_collinear_vertex_survives_on_a_broken_mesh(meshes_dir):
+    # the shared mesh where manifold3d's output has slivers that round to
+    # spikes 1.5 mm long (16 outlines in the default mode before the fix)
+    mesh = vs.load_mesh(meshes_dir / "openscad-nonmanifold-crash.obj")
+    for tol in ("middle", "inclusive", "exclusive"):
+        model = vs.slice_mesh(mesh, vs.SliceSettings(slicing_tolerance=tol))
+        for r in range(model.ring_offsets.shape[0] - 1):
+            ring = model.coords[model.ring_offsets[r]:model.ring_offsets[r + 1]]
+            d0 = ring - np.roll(ring, 1, axis=0)
+            d1 = np.roll(ring, -1, axis=0) - ring
+            cross = d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0]
+            assert (cross != 0).all(), (tol, r, ring[cross == 0].tolist())
 
 
 @st.composite
