@@ -131,7 +131,7 @@ def adaptive_layers(
     """
     zmin, zmax, slopes = sort_faces(face_z, slope)
     return adaptive_layers_sorted(zmin, zmax, slopes, first, hmax, hmin, step,
-                                  threshold, middle, max_layers)
+                                  threshold, middle, max_layers, zmax.max())
 
 
 @kernel(types.Tuple((I64_1D_OUT, I64_1D_OUT, F64_1D_OUT))(I64_2D, F64_1D))
@@ -157,15 +157,22 @@ def sort_faces(face_z, slope):
 
 @kernel(
     types.Tuple((I64_1D_OUT, I64_1D_OUT))(
-        I64_1D, I64_1D, F64_1D, I64, I64, I64, I64, I64, B1, I64
+        I64_1D, I64_1D, F64_1D, I64, I64, I64, I64, I64, B1, I64, I64
     )
 )
 def adaptive_layers_sorted(
-    zmin, zmax, slopes, first, hmax, hmin, step, threshold, middle, max_layers
+    zmin, zmax, slopes, first, hmax, hmin, step, threshold, middle, max_layers,
+    max_z
 ):
-    """:func:`adaptive_layers` on faces already in :func:`sort_faces` order."""
+    """:func:`adaptive_layers` on faces already in :func:`sort_faces` order.
+
+    ``max_z`` is the model's top (CuraEngine's ``model_max_z``, the largest
+    vertex z): layers are added while the last top is <= it. It is the highest
+    face z, unless the model has vertices above its faces (a mesh read by
+    CuraEngine's rules keeps the vertices of the faces its melding dropped);
+    above the faces every band is empty, and the layers are ``hmin`` thick.
+    """
     n_faces = zmin.shape[0]
-    max_z = zmax.max()
     reach = hmax // 2 if middle else hmax
     last = (hmax - hmin) // step  # index of hmin
     limit = float(threshold)

@@ -94,8 +94,7 @@ def _shift(mesh: Mesh, frame: str) -> int:
     check_option(frame, FRAMES, "frame")
     if frame == "bed":
         return 0
-    # the lowest corner of any face: CuraEngine's vertex list holds no vertex
-    # without a face
+    # the model's lowest point (see Mesh._corner_zrange)
     return mesh._corner_zrange()[0]
 
 
@@ -257,13 +256,14 @@ def adaptive_layer_heights(
     hmax, hmin = _height_range(s.layer_height, s.adaptive_variation,
                                s.adaptive_variation_step)
     zmin, zmax, slopes = _sorted_faces(m, dz)
+    # CuraEngine's model_max_z: the model's top (see Mesh._corner_zrange)
+    height = m._corner_zrange()[1] - dz
     thickness, top = adaptive_layers_sorted(
         zmin, zmax, slopes, s.initial_layer_height, hmax, hmin,
         s.adaptive_variation_step, s.adaptive_threshold,
-        s.slicing_tolerance == "middle", s.max_layers,
+        s.slicing_tolerance == "middle", s.max_layers, height,
     )
     if len(top) > s.max_layers:  # the kernel stopped one layer past the limit
-        height = int(zmax.max())
         most = 2 + max(0, height - s.initial_layer_height) // hmin
         check_layer_count(
             len(top), s.max_layers,

@@ -286,7 +286,11 @@ def cura_mesh_from_corners(corners_um: NDArray[np.int64], source: str) -> Any:
         vertices_merged=3 * n_in - int(vertices.shape[0]),
         faces_degenerate=n_in - int(faces.shape[0]),
     )
-    return Mesh._trusted(vertices, faces, info)
+    mesh = Mesh._trusted(vertices, faces, info)
+    # CuraEngine's bounding box: every vertex came with a face, dropped or not
+    # (the schedules measure the model from it: Mesh._corner_zrange)
+    object.__setattr__(mesh, "_zcorners", mesh.zrange)
+    return mesh
 
 
 def load_mesh_cura(source: Any, scale: float) -> Any:

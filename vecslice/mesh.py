@@ -164,12 +164,16 @@ class Mesh:
         object.__setattr__(self, "_adaptive", None)
 
     def __getstate__(self) -> tuple[Any, ...]:
-        # the cached topology is not pickled: cheaper to rebuild than to ship
-        return (self.vertices, self.faces, self.load_info)
+        # the cached topology is not pickled: cheaper to rebuild than to ship;
+        # the model's z range is, as a mesh read by CuraEngine's rules sets it
+        # (see _corner_zrange)
+        return (self.vertices, self.faces, self.load_info, self._zcorners)
 
     def __setstate__(self, state: tuple[Any, ...]) -> None:
-        v, f, info = state
+        v, f, info = state[:3]
         self._set(v, f, info)
+        if len(state) > 3:
+            object.__setattr__(self, "_zcorners", state[3])
 
     def _half_edge_twins(self) -> NDArray[np.int32]:
         """Twin of every half-edge (-1 where none), int32, built once per mesh.
@@ -334,12 +338,17 @@ class Mesh:
         return int(z.min()), int(z.max())
 
     def _corner_zrange(self) -> tuple[int, int]:
-        """Lowest and highest z of a face corner in µm, computed once.
+        """The model's lowest and highest z in µm, computed once.
 
-        What the layer schedules measure from: a vertex that no face uses
-        (``Mesh(vertices, faces)`` keeps them) is not part of the model, as in
-        CuraEngine, whose vertex list holds only the vertices of faces. The
-        vertex range for a mesh without faces.
+        What the layer schedules, the adaptive ``model_max_z``, the on-plane
+        limit of ``compat="cura"`` and the staircase metric measure from. A
+        vertex that no face uses (``Mesh(vertices, faces)`` keeps them) is not
+        part of the model: the z range of the faces' corners, as in CuraEngine,
+        whose vertex list holds only vertices that came with faces. A mesh read
+        by CuraEngine's rules (``load_mesh(..., compat="cura")``) sets it to its
+        vertices' range instead: each of them came with a face, and CuraEngine's
+        bounding box keeps the vertices of the faces its 30 µm melding then
+        drops. The vertex range for a mesh without faces.
         """
         zr = self._zcorners
         if zr is None:
@@ -396,6 +405,8 @@ class Mesh:
         moved = self.vertices + np.array(d, dtype=np.int64)
         out = Mesh._trusted(moved, self.faces, self.load_info)
         object.__setattr__(out, "_twins", self._twins)  # same faces, same topology
+        zmin, zmax = self._corner_zrange()  # the model moves with its vertices
+        object.__setattr__(out, "_zcorners", (zmin + d[2], zmax + d[2]))
         return out
 
     def repaired(self) -> Mesh:

@@ -64,6 +64,57 @@ def test_a_vertex_no_face_uses_does_not_move_the_schedule(compat, stray_z):
     assert stray._corner_zrange() == (0, 3000) and stray.zrange[0] == min(0, stray_z)
 
 
+def _needle_box_stl(path):
+    """A 10 mm cube with a 1 mm needle on top whose base corners are 10 µm
+    apart: CuraEngine's 30 µm melding drops the needle's faces, but its tip
+    vertex stays in CuraEngine's vertex list and bounding box."""
+    def tri(a, b, c):
+        return ("facet normal 0 0 0\n outer loop\n"
+                + "".join(f"  vertex {p[0]} {p[1]} {p[2]}\n" for p in (a, b, c))
+                + " endloop\nendfacet\n")
+
+    p = [(0, 0, 0), (10, 0, 0), (10, 10, 0), (0, 10, 0), (0, 0, 10), (10, 0, 10),
+         (10, 10, 10), (0, 10, 10)]
+    f = [(0, 2, 1), (0, 3, 2), (4, 5, 6), (4, 6, 7), (0, 1, 5), (0, 5, 4),
+         (1, 2, 6), (1, 6, 5), (2, 3, 7), (2, 7, 6), (3, 0, 4), (3, 4, 7)]
+    b0, b1, b2, tip = (5, 5, 10), (5.01, 5, 10), (5, 5.01, 10), (5, 5, 11)
+    text = ("solid needle\n" + "".join(tri(p[a], p[b], p[c]) for a, b, c in f)
+            + tri(b0, b1, tip) + tri(b1, b2, tip) + tri(b2, b0, tip)
+            + "endsolid needle\n")
+    path.write_text(text)
+    return path
+
+
+def test_compat_cura_schedules_reach_curaengines_bounding_box(tmp_path):
+    """CuraEngine's layer count (the mesh's bounding box height) and adaptive
+    model_max_z (its largest vertex z) count the vertices of faces its melding
+    dropped (CURA_COMPAT.md 2, ADAPTIVE.md 1). Expected values from an
+    independent transcription of the spec (validated on every adaptive vector):
+    108 uniform layers (98 from the box alone), 141 adaptive layers up to
+    slice_z 11010 (the last ones 10 µm thick above the faces)."""
+    import pickle
+
+    mesh = vs.load_mesh(_needle_box_stl(tmp_path / "needle.stl"), compat="cura")
+    assert mesh.zrange == (0, 11000) and mesh.faces.shape[0] == 12
+    assert mesh._corner_zrange() == (0, 11000)
+    uniform = vs.SliceSettings(compat="cura")
+    adaptive = vs.SliceSettings(compat="cura", adaptive_layers=True)
+    z, _, _ = vs.layer_heights(mesh, uniform)
+    assert len(z) == 108 and int(z[-1]) == 10950
+    z, _, t = vs.layer_heights(mesh, adaptive)
+    assert len(z) == 141 and int(z[-1]) == 11010 and int(t[-1]) == 10
+    # the range travels with the mesh: a pickle (sweep workers), a translation
+    again = pickle.loads(pickle.dumps(mesh))
+    assert again._corner_zrange() == (0, 11000)
+    assert len(vs.layer_heights(again, uniform)[0]) == 108
+    moved = mesh.translated(0, 0, 500)
+    assert moved._corner_zrange() == (500, 11500)
+    assert np.array_equal(vs.layer_heights(moved, uniform)[0],
+                          vs.layer_heights(mesh, uniform)[0] + 500)
+    # read the vecslice way, the needle's faces are kept: the top is 11000 too
+    assert vs.load_mesh(tmp_path / "needle.stl")._corner_zrange() == (0, 11000)
+
+
 def test_a_schedule_beyond_the_coordinate_limit_is_refused_by_name():
     """The last adaptive layer ends above the model: on a mesh whose top is near
     2**30 µm it used to fail later, blaming a `slice_z` the user never gave."""
