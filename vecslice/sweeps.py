@@ -353,7 +353,9 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
         return [_row(mesh_index, name, i, s, None, _describe(exc)) for i, s in combos]
 
     def share() -> _Shared:  # measures the mesh volume (a pass over the faces)
-        return _Shared(mesh, raw, stitched, schedule, mesh.volume,
+        from vecslice.staircase import _solid
+
+        return _Shared(mesh, raw, stitched, schedule, _solid(mesh),
                        prep.seconds + time.perf_counter() - t)
 
     if cura:  # CuraEngine's own stages: no raw contours to share
@@ -455,7 +457,7 @@ class _Shared:
     raw: Any  # stitched raw contours (None in compat="cura")
     stitched: Any
     schedule: tuple[Any, Any, Any]
-    mesh_volume: float
+    solid: Any  # staircase._Solid: what the staircase is measured against
     prep_seconds: float
 
 
@@ -483,7 +485,7 @@ def _measured(mesh_index: int, name: str, i: int, s: SliceSettings, model: Any,
             seconds += err_seconds
         moves = move_stats(model, speed_mm_s=speed, controller_ms=controller_ms,
                            percentiles=(1, 5, 50))
-        vol = volume_error(model, shared.mesh, _mesh_volume=shared.mesh_volume)
+        vol = volume_error(model, shared.mesh, _solid_of_mesh=shared.solid)
     except Exception as exc:
         return _row(mesh_index, name, i, s, None, _describe(exc))
     nan = math.nan
