@@ -180,8 +180,12 @@ def build_parser() -> argparse.ArgumentParser:
     from vecslice import __version__
 
     fmt = argparse.RawDescriptionHelpFormatter
+    # allow_abbrev=False (here and in every sub-parser): an unknown option is an
+    # error, never taken for a prefix of another (`view --layer 10` must not set
+    # --layer-height)
+    common: dict[str, Any] = {"formatter_class": fmt, "allow_abbrev": False}
     p = argparse.ArgumentParser(
-        prog="vecslice", formatter_class=fmt,
+        prog="vecslice", **common,
         description="Slice triangle meshes into CuraEngine-style layers of parts "
         "(outline + holes), look at them and save them. Lengths on the command "
         "line are in mm.",
@@ -197,7 +201,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"vecslice {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
-    s = sub.add_parser("slice", formatter_class=fmt, help="slice a model (default)",
+    s = sub.add_parser("slice", **common, help="slice a model (default)",
                        description="Slice a mesh file (or, without MODEL, the "
                        "built-in demo model) and print a summary.")
     s.add_argument("model", nargs="?", type=Path, metavar="MODEL",
@@ -207,7 +211,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "default: not saved)")
     _add_slice_options(s)
 
-    i = sub.add_parser("info", formatter_class=fmt, help="describe a mesh or .npz",
+    i = sub.add_parser("info", **common, help="describe a mesh or .npz",
                        description="For a mesh file: size, faces, open and "
                        "non-manifold edges, bodies, volume and what loading "
                        "repaired. For a saved .npz: layers, z range, parts, "
@@ -218,7 +222,7 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("--no-repair", action="store_true",
                    help="report the mesh as read, before repair")
 
-    pv = sub.add_parser("preview", formatter_class=fmt, help="picture of one layer",
+    pv = sub.add_parser("preview", **common, help="picture of one layer",
                         description="Draw one layer: parts filled, holes open, "
                         "open chains in orange. SVG needs nothing extra; PNG "
                         "needs matplotlib (pip install 'vecslice[plot]'). A mesh "
@@ -234,7 +238,7 @@ def build_parser() -> argparse.ArgumentParser:
                     metavar="OUT.png|OUT.svg", help="the picture to write")
     _add_slice_options(pv)
 
-    v = sub.add_parser("view", formatter_class=fmt, help="layer viewer (HTML)",
+    v = sub.add_parser("view", **common, help="layer viewer (HTML)",
                        description="Write the layer viewer: one self-contained "
                        "HTML file (no network, no server) with a layer slider, "
                        "keyboard stepping, zoom and pan. A mesh file is sliced "
