@@ -20,6 +20,7 @@ __all__ = [
     "CliInputError",
     "CompileNotice",
     "check_output",
+    "cli_path",
     "flush_and_exit",
     "human_bytes",
     "load_info_lines",
@@ -107,6 +108,26 @@ class CompileNotice:
             print(f"vecslice: compiled kernels in {self.seconds:.1f} s; they are "
                   "cached for the next run", file=self.stream or sys.stderr,
                   flush=True)
+
+
+def cli_path(text: str, flag: str, *, output: bool = False) -> Path:
+    """The path a command-line argument names, refusing what a Path would change.
+
+    ``Path("")`` is ``.`` and ``Path("out/")`` is ``out``: an empty argument, and an
+    output that ends with a path separator (or in ``.`` or ``..``), name no file.
+
+    Raises
+    ------
+    CliInputError
+        If ``text`` is empty, or ``output`` and ``text`` names a directory.
+    """
+    if not text:
+        raise CliInputError(f"{flag} is an empty string; give a file name")
+    seps = tuple(s for s in (os.sep, os.altsep) if s)
+    if output and (text.endswith(seps) or os.path.basename(text) in (".", "..")):
+        raise CliInputError(f"{flag} '{text}' names a directory, not a file; give "
+                            "a file name")
+    return Path(text)
 
 
 def check_output(path: Path | None, suffixes: tuple[str, ...] = (),

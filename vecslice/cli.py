@@ -27,6 +27,7 @@ from vecslice._cli_support import (
     CliInputError,
     CompileNotice,
     check_output,
+    cli_path,
     flush_and_exit,
     human_bytes,
     load_info_lines,
@@ -204,11 +205,11 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("slice", **common, help="slice a model (default)",
                        description="Slice a mesh file (or, without MODEL, the "
                        "built-in demo model) and print a summary.")
-    s.add_argument("model", nargs="?", type=Path, metavar="MODEL",
+    s.add_argument("model", nargs="?", metavar="MODEL",
                    help="STL, OBJ, PLY, OFF or 3MF file; omitted: the demo model")
-    s.add_argument("-o", "--output", type=Path, metavar="OUT.npz",
-                   help="save the sliced model (read it with vecslice.load_sliced; "
-                   "default: not saved)")
+    s.add_argument("-o", "--output", metavar="OUT.npz",
+                   help="save the sliced model to this .npz file (read it with "
+                   "vecslice.load_sliced; default: not saved)")
     _add_slice_options(s)
 
     i = sub.add_parser("info", **common, help="describe a mesh or .npz",
@@ -216,7 +217,7 @@ def build_parser() -> argparse.ArgumentParser:
                        "non-manifold edges, bodies, volume and what loading "
                        "repaired. For a saved .npz: layers, z range, parts, "
                        "vertices.")
-    i.add_argument("file", type=Path, metavar="FILE", help="mesh file or .npz")
+    i.add_argument("file", metavar="FILE", help="mesh file or .npz")
     i.add_argument("--scale", type=float, default=None, metavar="S",
                    help="file units to mm, as for slice (default 1)")
     i.add_argument("--no-repair", action="store_true",
@@ -227,14 +228,14 @@ def build_parser() -> argparse.ArgumentParser:
                         "open chains in orange. SVG needs nothing extra; PNG "
                         "needs matplotlib (pip install 'vecslice[plot]'). A mesh "
                         "file is sliced first.")
-    pv.add_argument("file", type=Path, metavar="FILE",
+    pv.add_argument("file", metavar="FILE",
                     help="saved .npz, or a mesh file to slice")
     which = pv.add_mutually_exclusive_group(required=True)
     which.add_argument("--layer", type=int, metavar="N",
                        help="layer index, 0 = first (negative: from the top)")
     which.add_argument("--z", type=float, metavar="MM",
                        help="the layer printed at this height above the bed")
-    pv.add_argument("-o", "--output", type=Path, required=True,
+    pv.add_argument("-o", "--output", required=True,
                     metavar="OUT.png|OUT.svg", help="the picture to write")
     _add_slice_options(pv)
 
@@ -243,9 +244,9 @@ def build_parser() -> argparse.ArgumentParser:
                        "HTML file (no network, no server) with a layer slider, "
                        "keyboard stepping, zoom and pan. A mesh file is sliced "
                        "first.")
-    v.add_argument("file", type=Path, metavar="FILE",
+    v.add_argument("file", metavar="FILE",
                    help="saved .npz, or a mesh file to slice")
-    v.add_argument("-o", "--output", type=Path, metavar="OUT.html",
+    v.add_argument("-o", "--output", metavar="OUT.html",
                    help="an .html or .htm file (default: FILE's name with .html, "
                    "in the current directory)")
     _add_slice_options(v)
@@ -367,7 +368,7 @@ def _model_for(args: argparse.Namespace) -> tuple[Any, str]:
 def cmd_slice(args: argparse.Namespace) -> None:
     """``vecslice slice``."""
     settings = settings_from_args(args)
-    out = check_output(args.output, inputs=(args.model,))
+    out = check_output(args.output, (".npz",), inputs=(args.model,))
     t = time.perf_counter()
     mesh = _load(args.model, args, settings)
     model = _slice(mesh, args, settings, time.perf_counter() - t)
@@ -495,6 +496,14 @@ def _normalise(argv: list[str]) -> list[str]:
     return ["slice", *argv]
 
 
+def _paths(args: argparse.Namespace) -> None:
+    """The path arguments (kept as typed by argparse) as Paths, checked first."""
+    for dest, flag in (("model", "MODEL"), ("file", "FILE"), ("output", "-o")):
+        text = getattr(args, dest, None)
+        if text is not None:
+            setattr(args, dest, cli_path(text, flag, output=dest == "output"))
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status (see the module docstring).
 
@@ -509,6 +518,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             args = parser.parse_args(_normalise(raw))
         except SystemExit as exc:  # --help, --version, usage errors (2)
             return int(exc.code or 0) if not isinstance(exc.code, str) else 2
+        _paths(args)
         with CompileNotice():
             _COMMANDS[args.command](args)
     except KeyboardInterrupt:

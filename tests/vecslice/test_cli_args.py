@@ -56,3 +56,49 @@ def test_an_abbreviated_option_is_an_error_naming_it(capsys, cube, args, typed):
     line = error_line(capsys, *args, code=2)
     assert "unrecognized arguments: " in line and typed in line.split(": ")[-1]
     assert sorted(p.name for p in cube.parent.iterdir()) == ["cube.stl"]
+
+
+# --- D2: what `slice -o` may name; D7: empty arguments ------------------------
+
+
+def test_slice_output_must_be_an_npz_file(capsys, cube):
+    """Audit s24 D2: ``slice -o other.stl`` replaced a mesh by a zip archive."""
+    other = cube.parent / "other.stl"
+    other.write_bytes(b"solid the user's mesh\nendsolid\n")
+    for name in ("other.stl", "model", "page.html"):
+        line = error_line(capsys, "cube.stl", "-o", name)
+        assert line == f"vecslice: error: -o must name a .npz file; got '{name}'"
+    assert other.read_bytes() == b"solid the user's mesh\nendsolid\n"
+    assert sorted(p.name for p in cube.parent.iterdir()) == ["cube.stl", "other.stl"]
+    code, out, _ = run(capsys, "cube.stl", "-o", "CUBE.NPZ")  # any case
+    assert code == 0 and "saved     CUBE.NPZ (" in out
+
+
+@pytest.mark.parametrize("target", ["results/", "results.npz/", "results.npz/.",
+                                    "sub/..", "."])
+def test_output_naming_a_directory_is_refused(capsys, cube, target):
+    """Audit s24 D2: ``-o results/`` wrote a file named ``results``."""
+    (cube.parent / "sub").mkdir()
+    for args in (["cube.stl"], ["view", "cube.stl"],
+                 ["preview", "cube.stl", "--layer", "0"]):
+        line = error_line(capsys, *args, "-o", target)
+        assert line == (f"vecslice: error: -o '{target}' names a directory, not a "
+                        "file; give a file name")
+    assert sorted(p.name for p in cube.parent.iterdir()) == ["cube.stl", "sub"]
+
+
+@pytest.mark.parametrize(("args", "flag"), [
+    (["view", ""], "FILE"),
+    (["info", ""], "FILE"),
+    (["preview", "", "--layer", "0", "-o", "a.svg"], "FILE"),
+    (["slice", ""], "MODEL"),
+    ([""], "MODEL"),
+    (["cube.stl", "-o", ""], "-o"),
+    (["view", "cube.stl", "-o", ""], "-o"),
+])  # fmt: skip
+def test_an_empty_argument_is_said_to_be_empty(capsys, cube, args, flag):
+    """Audit s24 D7: ``view ''`` complained about ``-o '.html'``, ``info ''``
+    about the directory ``'.'``."""
+    line = error_line(capsys, *args)
+    assert line == f"vecslice: error: {flag} is an empty string; give a file name"
+    assert sorted(p.name for p in cube.parent.iterdir()) == ["cube.stl"]
