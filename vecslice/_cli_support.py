@@ -11,7 +11,7 @@ import sys
 import threading
 from dataclasses import fields
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 from vecslice.errors import InputValueError
 
@@ -25,6 +25,8 @@ __all__ = [
     "human_bytes",
     "load_info_lines",
     "note",
+    "say",
+    "shown",
     "size_hint",
 ]
 
@@ -35,9 +37,39 @@ class CliInputError(InputValueError):
     """A command-line value that vecslice rejects (exit status 1)."""
 
 
+def shown(path: str | os.PathLike[str]) -> str:
+    r"""How the command line shows ``path``: its bytes as UTF-8, others escaped.
+
+    A file name is bytes; one that is not valid UTF-8 (``caf\xe9.stl`` in
+    Latin-1) reaches Python with surrogates, which no strict encoder accepts.
+    Every path printed, or put into a page, goes through here: the same
+    ``caf\xe9.stl`` everywhere, never a UnicodeEncodeError.
+    """
+    return os.fsencode(path).decode("utf-8", "backslashreplace")
+
+
+def say(text: str, stream: TextIO | None = None, *, flush: bool = False) -> None:
+    """Print ``text`` and a newline on ``stream`` (default: stdout).
+
+    Characters the stream's encoding lacks (``µ`` on an ASCII stream, a
+    surrogate under ``PYTHONIOENCODING=utf-8``) are written as backslash escapes
+    instead of raising UnicodeEncodeError, which would end the run with a
+    traceback after its work was done.
+    """
+    stream = stream or sys.stdout
+    try:
+        stream.write(text + "\n")
+    except UnicodeEncodeError:  # raised before anything is written
+        encoding = getattr(stream, "encoding", None) or "ascii"
+        safe = text.encode(encoding, "backslashreplace").decode(encoding, "replace")
+        stream.write(safe + "\n")
+    if flush:
+        stream.flush()
+
+
 def note(message: str) -> None:
     """One line on stderr, prefixed ``vecslice: ``."""
-    print(f"vecslice: {message}", file=sys.stderr, flush=True)
+    say(f"vecslice: {message}", sys.stderr, flush=True)
 
 
 class CompileNotice:
@@ -125,8 +157,8 @@ def cli_path(text: str, flag: str, *, output: bool = False) -> Path:
         raise CliInputError(f"{flag} is an empty string; give a file name")
     seps = tuple(s for s in (os.sep, os.altsep) if s)
     if output and (text.endswith(seps) or os.path.basename(text) in (".", "..")):
-        raise CliInputError(f"{flag} '{text}' names a directory, not a file; give "
-                            "a file name")
+        raise CliInputError(f"{flag} '{shown(text)}' names a directory, not a "
+                            "file; give a file name")
     return Path(text)
 
 
@@ -151,28 +183,29 @@ def check_output(path: Path | None, suffixes: tuple[str, ...] = (),
     """
     if path is None:
         return None
+    name = shown(path)
     for source in inputs:
         if source is not None and _same_file(path, source):
-            raise CliInputError(f"{flag} '{path}' is the input file '{source}': "
-                                "vecslice never overwrites its input; choose "
-                                "another output name")
+            raise CliInputError(f"{flag} '{name}' is the input file "
+                                f"'{shown(source)}': vecslice never overwrites its "
+                                "input; choose another output name")
     if suffixes and path.suffix.lower() not in suffixes:
         raise CliInputError(f"{flag} must name a {' or '.join(suffixes)} file; "
-                            f"got '{path}'")
+                            f"got '{name}'")
     if path.is_dir():
-        raise CliInputError(f"{flag} '{path}' is a directory; give a file name")
+        raise CliInputError(f"{flag} '{name}' is a directory; give a file name")
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.exists():
-        raise CliInputError(f"{flag} '{path}': the directory '{parent}' does not "
-                            "exist")
+        raise CliInputError(f"{flag} '{name}': the directory '{shown(parent)}' "
+                            "does not exist")
     if not parent.is_dir():
-        raise CliInputError(f"{flag} '{path}': '{parent}' is not a directory")
+        raise CliInputError(f"{flag} '{name}': '{shown(parent)}' is not a directory")
     if not os.access(parent, os.W_OK | os.X_OK):
-        raise CliInputError(f"{flag} '{path}': the directory '{parent}' is not "
-                            "writable")
+        raise CliInputError(f"{flag} '{name}': the directory '{shown(parent)}' "
+                            "is not writable")
     from vecslice.npz import check_target
 
-    check_target(str(path), where=f"{flag} '{path}'")
+    check_target(str(path), where=f"{flag} '{name}'")
     return path
 
 

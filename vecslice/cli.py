@@ -15,6 +15,7 @@ usage (argparse), 130 interrupted (Ctrl-C).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 import time
@@ -32,6 +33,8 @@ from vecslice._cli_support import (
     human_bytes,
     load_info_lines,
     note,
+    say,
+    shown,
     size_hint,
 )
 from vecslice.errors import VecsliceError
@@ -282,7 +285,7 @@ def _load(path: Path | None, args: argparse.Namespace, settings: Any) -> Any:
                                 f"{args.scale:g} without one")
         from vecslice.demo import demo_mesh
 
-        print("no model given: slicing the built-in demo model")
+        say("no model given: slicing the built-in demo model")
         mesh = _work(demo_mesh)
     else:
         from vecslice.mesh import load_mesh
@@ -301,12 +304,12 @@ def _load(path: Path | None, args: argparse.Namespace, settings: Any) -> Any:
         f"not watertight: {report.boundary_edges:,} open edges, "
         f"{report.nonmanifold_edges:,} non-manifold, "
         f"{report.inconsistent_edges:,} inconsistent")
-    name = "demo model" if path is None else str(path)
-    print(f"model     {name}: {_n(report.n_faces, 'face')}, "
-          f"{_n(report.n_bodies, 'body', 'bodies')}, "
-          f"{size[0]:.3f} x {size[1]:.3f} x {size[2]:.3f} mm, {state}")
+    name = "demo model" if path is None else shown(path)
+    say(f"model     {name}: {_n(report.n_faces, 'face')}, "
+        f"{_n(report.n_bodies, 'body', 'bodies')}, "
+        f"{size[0]:.3f} x {size[1]:.3f} x {size[2]:.3f} mm, {state}")
     for line in load_info_lines(mesh.load_info, melded=bool(compat)):
-        print(line)
+        say(line)
     if path is not None and np.all(np.isfinite(size)):
         hint = size_hint(size, args.scale is not None)
         if hint:
@@ -338,15 +341,15 @@ def _summary(model: Any, seconds: dict[str, float], counts: dict[str, int]) -> N
     stored = int(model.coords.shape[0])
     z = model.print_z / 1000.0
     span = f", z {z[0]:.3f} to {z[-1]:.3f} mm" if model.n_layers else ""
-    print(f"layers    {model.n_layers:,}{span}")
-    print(f"parts     {model.n_parts:,} ({_n(model.n_rings - model.n_parts, 'hole')})")
+    say(f"layers    {model.n_layers:,}{span}")
+    say(f"parts     {model.n_parts:,} ({_n(model.n_rings - model.n_parts, 'hole')})")
     ratio = f" ({stored / raw:.0%})" if raw else ""
     raw_text = f"{raw:,} raw -> " if raw is not None else ""
-    print(f"vertices  {raw_text}{stored:,} stored{ratio}")
-    print(f"open      {_n(n_open, 'chain')} left open, "
-          f"{_n(int(model.stitched_gaps.sum()), 'gap')} stitched")
+    say(f"vertices  {raw_text}{stored:,} stored{ratio}")
+    say(f"open      {_n(n_open, 'chain')} left open, "
+        f"{_n(int(model.stitched_gaps.sum()), 'gap')} stitched")
     stages = ", ".join(f"{k} {v:.3f}" for k, v in seconds.items())
-    print(f"seconds   {stages} (total {sum(seconds.values()):.3f})")
+    say(f"seconds   {stages} (total {sum(seconds.values()):.3f})")
 
 
 def _model_for(args: argparse.Namespace) -> tuple[Any, str]:
@@ -355,14 +358,15 @@ def _model_for(args: argparse.Namespace) -> tuple[Any, str]:
         given = _slicing_given(args)
         if given:
             raise CliInputError(f"{given[0]} applies to a mesh file, not to a saved "
-                                f"model '{args.file}'")
+                                f"model '{shown(args.file)}'")
         from vecslice.storage import load_sliced
 
-        return _work(load_sliced, args.file), args.file.name
+        return _work(load_sliced, args.file), shown(args.file.name)
     settings = settings_from_args(args)
     t = time.perf_counter()
     mesh = _load(args.file, args, settings)
-    return _slice(mesh, args, settings, time.perf_counter() - t), args.file.name
+    return (_slice(mesh, args, settings, time.perf_counter() - t),
+            shown(args.file.name))
 
 
 def cmd_slice(args: argparse.Namespace) -> None:
@@ -374,7 +378,7 @@ def cmd_slice(args: argparse.Namespace) -> None:
     model = _slice(mesh, args, settings, time.perf_counter() - t)
     if out is not None:
         model.save(out)
-        print(f"saved     {out} ({human_bytes(out.stat().st_size)})")
+        say(f"saved     {shown(out)} ({human_bytes(out.stat().st_size)})")
 
 
 def cmd_info(args: argparse.Namespace) -> None:
@@ -382,7 +386,7 @@ def cmd_info(args: argparse.Namespace) -> None:
     if _is_npz(args.file):
         if args.scale is not None or args.no_repair:
             raise CliInputError("--scale and --no-repair apply to a mesh file, not "
-                                f"to a saved model '{args.file}'")
+                                f"to a saved model '{shown(args.file)}'")
         from vecslice.storage import load_sliced
 
         _describe_model(_work(load_sliced, args.file), args.file)
@@ -394,8 +398,11 @@ def cmd_info(args: argparse.Namespace) -> None:
     scale = 1.0 if args.scale is None else args.scale
     mesh = _work(load_mesh, args.file, scale=scale, repair=not args.no_repair)
     report = _work(check_mesh, mesh)
-    print(f"file                {args.file}")
-    print(report)  # its last lines say what loading merged, dropped and repaired
+    if report.load_info is not None:  # its source: the path, shown as above
+        info = dataclasses.replace(report.load_info, source=shown(args.file))
+        report = dataclasses.replace(report, load_info=info)
+    say(f"file                {shown(args.file)}")
+    say(str(report))  # its last lines say what loading merged, dropped and repaired
     size = (report.bounds[1] - report.bounds[0]) / 1000.0
     hint = size_hint(size, args.scale is not None) \
         if np.all(np.isfinite(size)) else None
@@ -404,25 +411,25 @@ def cmd_info(args: argparse.Namespace) -> None:
 
 
 def _describe_model(model: Any, path: Path) -> None:
-    print(f"file      {path} ({human_bytes(path.stat().st_size)})")
-    print(f"layers    {model.n_layers:,}")
+    say(f"file      {shown(path)} ({human_bytes(path.stat().st_size)})")
+    say(f"layers    {model.n_layers:,}")
     if model.n_layers:
         pz, sz = model.print_z / 1000.0, model.slice_z / 1000.0
         th = model.thickness / 1000.0
-        print(f"z         {pz[0]:.3f} to {pz[-1]:.3f} mm (printed), cut at "
-              f"{sz[0]:.3f} to {sz[-1]:.3f} mm")
+        say(f"z         {pz[0]:.3f} to {pz[-1]:.3f} mm (printed), cut at "
+            f"{sz[0]:.3f} to {sz[-1]:.3f} mm")
         rest = sorted({float(t) for t in th[1:]})
         then = "" if not rest else f", then {rest[0]:g} mm" if len(rest) == 1 \
             else f", then {rest[0]:g} to {rest[-1]:g} mm"
-        print(f"thickness first layer {th[0]:g} mm{then}")
-    print(f"parts     {model.n_parts:,} ({_n(model.n_rings - model.n_parts, 'hole')})")
-    print(f"vertices  {model.coords.shape[0]:,}")
+        say(f"thickness first layer {th[0]:g} mm{then}")
+    say(f"parts     {model.n_parts:,} ({_n(model.n_rings - model.n_parts, 'hole')})")
+    say(f"vertices  {model.coords.shape[0]:,}")
     box = model.bounds()
     if box is not None:
         (x0, y0), (x1, y1) = box / 1000.0
-        print(f"bounds    x {x0:.3f} to {x1:.3f} mm, y {y0:.3f} to {y1:.3f} mm")
-    print(f"open      {_n(int(model.open_chains.sum()), 'chain')} left open, "
-          f"{_n(model.open_ring_offsets.shape[0] - 1, 'polyline')} kept")
+        say(f"bounds    x {x0:.3f} to {x1:.3f} mm, y {y0:.3f} to {y1:.3f} mm")
+    say(f"open      {_n(int(model.open_chains.sum()), 'chain')} left open, "
+        f"{_n(model.open_ring_offsets.shape[0] - 1, 'polyline')} kept")
 
 
 def _layer_for(model: Any, args: argparse.Namespace) -> int:
@@ -430,7 +437,7 @@ def _layer_for(model: Any, args: argparse.Namespace) -> int:
 
     n = model.n_layers
     if n == 0:
-        raise CliInputError(f"'{args.file}' has no layers to preview")
+        raise CliInputError(f"'{shown(args.file)}' has no layers to preview")
     if args.layer is not None:
         if not -n <= args.layer < n:
             raise CliInputError(f"--layer must be a layer index from 0 to {n - 1} "
@@ -465,8 +472,8 @@ def cmd_preview(args: argparse.Namespace) -> None:
         from vecslice.plot import save_layer
 
         write_atomic(str(out), lambda fh: save_layer(model, k, fh, format="png"))
-    print(f"layer {k} of {model.n_layers} (z {model.print_z[k] / 1000:g} mm) "
-          f"-> {out}")
+    say(f"layer {k} of {model.n_layers} (z {model.print_z[k] / 1000:g} mm) "
+        f"-> {shown(out)}")
 
 
 def cmd_view(args: argparse.Namespace) -> None:
@@ -481,8 +488,8 @@ def cmd_view(args: argparse.Namespace) -> None:
     # written from the main thread: Ctrl-C during the write removes the
     # temporary file before the process ends
     write_atomic(str(out), lambda fh: fh.write(data))
-    print(f"wrote     {out} ({human_bytes(out.stat().st_size)}, {model.n_layers:,} "
-          "layers); open it in a browser")
+    say(f"wrote     {shown(out)} ({human_bytes(out.stat().st_size)}, "
+        f"{model.n_layers:,} layers); open it in a browser")
 
 
 _COMMANDS = {"slice": cmd_slice, "info": cmd_info, "preview": cmd_preview,
@@ -526,7 +533,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return INTERRUPTED
     except (VecsliceError, OSError) as exc:
         text = " ".join(str(exc).split())  # one line
-        print(f"vecslice: error: {text}", file=sys.stderr, flush=True)
+        say(f"vecslice: error: {text}", sys.stderr, flush=True)
+        return 1
+    except UnicodeEncodeError as exc:  # printed by other code than say() (argparse)
+        bad = exc.object[exc.start:exc.end]
+        say(f"vecslice: error: cannot write {bad!r} in the encoding {exc.encoding!r} "
+            "of the terminal; set PYTHONIOENCODING=utf-8", sys.stderr, flush=True)
         return 1
     return 0
 

@@ -3,6 +3,10 @@
 ``main([...])`` returns the exit status; what it prints is read with ``capsys``.
 """
 
+import os
+import subprocess
+import sys
+
 import pytest
 
 from vecslice.cli import main
@@ -102,3 +106,57 @@ def test_an_empty_argument_is_said_to_be_empty(capsys, cube, args, flag):
     line = error_line(capsys, *args)
     assert line == f"vecslice: error: {flag} is an empty string; give a file name"
     assert sorted(p.name for p in cube.parent.iterdir()) == ["cube.stl"]
+
+
+# --- D4: file names that are not UTF-8 ----------------------------------------
+
+
+def _vecslice(*args, cwd, encoding):
+    """``python -m vecslice ARGS`` with stdout and stderr in ``encoding`` (strict)."""
+    env = {**os.environ, "PYTHONIOENCODING": encoding}
+    proc = subprocess.run([sys.executable, "-m", "vecslice", *args], cwd=cwd,
+                          capture_output=True, check=False, timeout=300, env=env)
+    err = proc.stderr.decode("ascii")  # escaped, whatever the name
+    assert "Traceback" not in err, err
+    return proc.returncode, proc.stdout.decode("ascii"), err
+
+
+@pytest.mark.parametrize(("raw", "encoding"), [
+    (b"caf\xe9", "utf-8"),  # Latin-1 bytes: surrogates in Python
+    ("café".encode(), "ascii"),  # valid UTF-8, on an ASCII terminal
+])
+def test_a_file_name_that_the_terminal_cannot_show(tmp_path, raw, encoding):
+    """Audit s24 D4: ``view`` always, and ``info``/``slice`` under a strict stdout
+    (``PYTHONIOENCODING=utf-8``, any UTF-8 locale but C), ended in a traceback, after
+    the slice (which was lost)."""
+    import trimesh
+
+    stl = os.fsdecode(raw + b".stl")
+    trimesh.creation.box((10, 10, 10)).export(tmp_path / stl)
+    shown = r"caf\xe9"  # the bytes' escape, in both cases
+    code, out, err = _vecslice("info", stl, cwd=tmp_path, encoding=encoding)
+    assert code == 0, err
+    assert f"file                {shown}.stl\n" in out
+    assert f"source              {shown}.stl\n" in out
+    code, out, err = _vecslice(stl, "-o", os.fsdecode(raw + b".npz"), cwd=tmp_path,
+                               encoding=encoding)
+    assert code == 0, err
+    assert f"model     {shown}.stl: 12 faces" in out
+    assert f"saved     {shown}.npz (" in out
+    code, out, err = _vecslice("view", stl, cwd=tmp_path, encoding=encoding)
+    assert code == 0, err
+    assert f"wrote     {shown}.html (" in out
+    page = (tmp_path / os.fsdecode(raw + b".html")).read_text(encoding="utf-8")
+    title = raw.decode("utf-8", "backslashreplace")  # café, or caf\xe9 escaped
+    assert f"<title>{title}.stl - vecslice layer viewer</title>" in page
+    code, out, err = _vecslice("preview", os.fsdecode(raw + b".npz"), "--layer",
+                               "-1", "-o", os.fsdecode(raw + b".svg"), cwd=tmp_path,
+                               encoding=encoding)
+    assert code == 0, err
+    assert out.endswith(f"-> {shown}.svg\n")
+    # errors too: one line, the same form of the name
+    code, out, err = _vecslice("view", stl, "-o", stl, cwd=tmp_path,
+                               encoding=encoding)
+    assert code == 1 and err == (f"vecslice: error: -o '{shown}.stl' is the input "
+                                 f"file '{shown}.stl': vecslice never overwrites "
+                                 "its input; choose another output name\n")
