@@ -99,6 +99,11 @@ SLICE_OPTIONS: tuple[Option, ...] = (
            "the wrong unit)"),
 )
 
+# options that do nothing without --adaptive-layers
+ADAPTIVE_ONLY = ("--adaptive-variation", "--adaptive-variation-step",
+                 "--adaptive-threshold")
+_SETTING = {opt.flag: opt.setting for opt in SLICE_OPTIONS}
+
 
 def _add_slice_options(parser: argparse.ArgumentParser) -> None:
     from vecslice.settings import SliceSettings
@@ -138,13 +143,20 @@ def settings_from_args(args: argparse.Namespace) -> Any:
     Raises
     ------
     CliInputError
-        If a value is not finite or the settings reject it; the message names
-        the option and the value in mm.
+        If a value is not finite or the settings reject it, or an option of
+        ``ADAPTIVE_ONLY`` is given without ``--adaptive-layers``; the message
+        names the option and the value in mm.
     """
     from vecslice.errors import InputValueError
     from vecslice.settings import SliceSettings
     from vecslice.units import to_microns
 
+    if not getattr(args, "adaptive_layers", None):
+        for flag in ADAPTIVE_ONLY:
+            v = getattr(args, _SETTING[flag], None)
+            if v is not None:  # typed: the default is None
+                raise CliInputError(f"{flag} only applies with --adaptive-layers; "
+                                    f"got {v:g} without it")
     values: dict[str, Any] = {}
     for opt in SLICE_OPTIONS:
         v = getattr(args, opt.setting, None)
@@ -283,6 +295,10 @@ def _load(path: Path | None, args: argparse.Namespace, settings: Any) -> Any:
         if args.scale is not None:
             raise CliInputError("--scale only applies to a model file; got "
                                 f"{args.scale:g} without one")
+        if args.no_repair:
+            raise CliInputError("--no-repair only applies to a model file; got it "
+                                "without one (the built-in demo model needs no "
+                                "repair)")
         from vecslice.demo import demo_mesh
 
         say("no model given: slicing the built-in demo model")

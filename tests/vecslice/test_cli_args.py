@@ -9,6 +9,7 @@ import sys
 
 import pytest
 
+import vecslice as vs
 from vecslice.cli import main
 
 
@@ -160,3 +161,37 @@ def test_a_file_name_that_the_terminal_cannot_show(tmp_path, raw, encoding):
     assert code == 1 and err == (f"vecslice: error: -o '{shown}.stl' is the input "
                                  f"file '{shown}.stl': vecslice never overwrites "
                                  "its input; choose another output name\n")
+
+
+# --- D5: options that would do nothing ----------------------------------------
+
+
+@pytest.mark.parametrize(("args", "line"), [
+    (["cube.stl", "--adaptive-variation", "0.05"],
+     "--adaptive-variation only applies with --adaptive-layers; got 0.05 without it"),
+    (["cube.stl", "--adaptive-variation-step", "0.05", "--adaptive-threshold", "5"],
+     "--adaptive-variation-step only applies with --adaptive-layers; got 0.05 "
+     "without it"),
+    (["view", "cube.stl", "--adaptive-threshold", "-0.5"],
+     "--adaptive-threshold only applies with --adaptive-layers; got -0.5 without it"),
+    (["preview", "cube.stl", "--layer", "0", "-o", "a.svg", "--adaptive-threshold",
+      "5"], "--adaptive-threshold only applies with --adaptive-layers"),
+    (["--no-repair"], "--no-repair only applies to a model file; got it without one"),
+    (["slice", "--no-repair", "-o", "demo.npz"], "--no-repair only applies to a "
+     "model file"),
+])  # fmt: skip
+def test_options_that_would_do_nothing_are_refused(capsys, cube, args, line):
+    """Audit s24 D5: the adaptive options without ``--adaptive-layers``, and
+    ``--no-repair`` on the demo model, were accepted and ignored."""
+    assert error_line(capsys, *args).startswith(f"vecslice: error: {line}")
+    assert sorted(p.name for p in cube.parent.iterdir()) == ["cube.stl"]
+
+
+def test_adaptive_options_apply_with_adaptive_layers(capsys, cube):
+    code, out, err = run(capsys, "cube.stl", "--adaptive-layers",
+                         "--adaptive-variation", "0.05", "--adaptive-threshold",
+                         "0.1", "-o", "a.npz")
+    assert code == 0, err
+    want = vs.slice_mesh(vs.load_mesh(cube), vs.SliceSettings(
+        adaptive_layers=True, adaptive_variation=50, adaptive_threshold=100))
+    assert (vs.load_sliced(cube.parent / "a.npz").thickness == want.thickness).all()
