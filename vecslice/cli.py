@@ -483,11 +483,12 @@ def cmd_preview(args: argparse.Namespace) -> None:
 
     if out.suffix.lower() == ".svg":
         data = model.to_svg(k).encode("utf-8")
-        write_atomic(str(out), lambda fh: fh.write(data))
+        write_atomic(str(out), lambda fh: fh.write(data), what="an SVG picture")
     else:
         from vecslice.plot import save_layer
 
-        write_atomic(str(out), lambda fh: save_layer(model, k, fh, format="png"))
+        write_atomic(str(out), lambda fh: save_layer(model, k, fh, format="png"),
+                     what="a PNG picture")
     say(f"layer {k} of {model.n_layers} (z {model.print_z[k] / 1000:g} mm) "
         f"-> {shown(out)}")
 
@@ -503,7 +504,7 @@ def cmd_view(args: argparse.Namespace) -> None:
     data = _work(viewer_html, model, title=title).encode("utf-8")
     # written from the main thread: Ctrl-C during the write removes the
     # temporary file before the process ends
-    write_atomic(str(out), lambda fh: fh.write(data))
+    write_atomic(str(out), lambda fh: fh.write(data), what="a layer viewer page")
     say(f"wrote     {shown(out)} ({human_bytes(out.stat().st_size)}, "
         f"{model.n_layers:,} layers); open it in a browser")
 

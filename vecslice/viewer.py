@@ -190,4 +190,5 @@ def write_viewer(
     from vecslice.npz import check_path, write_atomic
 
     data = viewer_html(model, title=title).encode("utf-8")
-    write_atomic(check_path(path), lambda fh: fh.write(data))
+    write_atomic(check_path(path), lambda fh: fh.write(data),
+                 what="a layer viewer page")

@@ -3,6 +3,7 @@
 ``main([...])`` returns the exit status; what it prints is read with ``capsys``.
 """
 
+import errno
 import os
 import subprocess
 import sys
@@ -31,14 +32,15 @@ def run(capsys, *args):
     return code, out, err
 
 
-def error_line(capsys, *args, code=1):
-    """The one line ``vecslice: error: ...`` of a refused run (nothing on stdout)."""
+def error_line(capsys, *args, code=1, before_work=True):
+    """The one line ``vecslice: error: ...`` of a failed run (by default refused
+    before any work: nothing on stdout)."""
     got, out, err = run(capsys, *args)
     assert got == code, (out, err)
     lines = err.strip().splitlines()
     assert lines[-1].startswith("vecslice") and ": error: " in lines[-1], err
     if code == 1:
-        assert len(lines) == 1 and out == "", (out, err)
+        assert len(lines) == 1 and (out == "" or not before_work), (out, err)
     return lines[-1]
 
 
@@ -195,3 +197,44 @@ def test_adaptive_options_apply_with_adaptive_layers(capsys, cube):
     want = vs.slice_mesh(vs.load_mesh(cube), vs.SliceSettings(
         adaptive_layers=True, adaptive_variation=50, adaptive_threshold=100))
     assert (vs.load_sliced(cube.parent / "a.npz").thickness == want.thickness).all()
+
+
+# --- D6: a failed write names the output and what it is -----------------------
+
+
+class _FullDisk:
+    """A file whose writes fail as on a full disk (delegates everything else)."""
+
+    def __init__(self, fh):
+        self._fh = fh
+
+    def write(self, data):
+        raise OSError(errno.EFBIG, os.strerror(errno.EFBIG))
+
+    def __getattr__(self, name):
+        return getattr(self._fh, name)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self._fh.close()
+
+
+@pytest.mark.parametrize(("out", "what"), [
+    ("layer.png", "a PNG picture"), ("layer.svg", "an SVG picture"),
+    ("page.html", "a layer viewer page"), ("m.npz", "a vecslice model"),
+])  # fmt: skip
+def test_a_failed_write_names_the_output(capsys, cube, monkeypatch, out, what):
+    """Audit s24 D6: ``preview -o layer.png`` said ``cannot write
+    <_io.BufferedWriter name=3>``, and SVG or page writes "a vecslice model"."""
+    if out.endswith(".png"):
+        pytest.importorskip("matplotlib")
+    fdopen = os.fdopen
+    monkeypatch.setattr(os, "fdopen", lambda *a, **k: _FullDisk(fdopen(*a, **k)))
+    command = {"png": ["preview", "--layer", "0"], "svg": ["preview", "--layer", "0"],
+               "html": ["view"], "npz": ["slice"]}[out.rsplit(".", 1)[1]]
+    line = error_line(capsys, command[0], "cube.stl", *command[1:], "-o", out,
+                      before_work=False)
+    assert line == f"vecslice: error: cannot save {what} to '{out}': File too large"
+    assert os.listdir() == ["cube.stl"]  # no temporary file left
