@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import re
 import sys
 import time
 from collections.abc import Sequence
@@ -37,7 +38,7 @@ from vecslice._cli_support import (
     shown,
     size_hint,
 )
-from vecslice.errors import VecsliceError
+from vecslice.errors import LayerCountError, VecsliceError
 
 __all__ = ["SLICE_OPTIONS", "Option", "main", "run"]
 
@@ -149,7 +150,7 @@ def settings_from_args(args: argparse.Namespace) -> Any:
     """
     from vecslice.errors import InputValueError
     from vecslice.settings import SliceSettings
-    from vecslice.units import to_microns
+    from vecslice.units import COORD_LIMIT, to_microns
 
     if not getattr(args, "adaptive_layers", None):
         for flag in ADAPTIVE_ONLY:
@@ -168,9 +169,10 @@ def settings_from_args(args: argparse.Namespace) -> Any:
                                     f"got {v}")
             try:
                 v = int(to_microns(v, name=opt.flag))
-            except InputValueError as exc:
-                raise CliInputError(f"{opt.flag} {v:g} mm is out of range: "
-                                    f"{exc}") from None
+            except InputValueError:
+                raise CliInputError(f"{opt.flag} {v:g} mm is out of range: it must "
+                                    f"be below {COORD_LIMIT / 1000:g} mm in "
+                                    "magnitude (2**30 µm)") from None
         try:
             SliceSettings(**{opt.setting: v})
         except InputValueError as exc:
@@ -191,6 +193,26 @@ def _slicing_given(args: argparse.Namespace) -> list[str]:
     return given
 
 
+# what argparse takes for a negative number (a value), not an option: its own
+# -5 and -.5, and also -5e-1, -1E+3, -5., -inf and -nan (any case), which float()
+# reads
+_NEGATIVE_NUMBER = re.compile(
+    r"^-(\d+\.?\d*|\.\d+)(e[-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser that reads ``-5e-1`` and ``-inf`` as values.
+
+    Its sub-parsers are ``_Parser`` too (``add_subparsers`` makes sub-parsers of
+    the parser's own class).
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # argparse's own matcher (Python 3.11) knows only forms like -5 and -.5
+        self._negative_number_matcher = _NEGATIVE_NUMBER
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``vecslice`` (all subcommands)."""
     from vecslice import __version__
@@ -200,7 +222,7 @@ def build_parser() -> argparse.ArgumentParser:
     # error, never taken for a prefix of another (`view --layer 10` must not set
     # --layer-height)
     common: dict[str, Any] = {"formatter_class": fmt, "allow_abbrev": False}
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="vecslice", **common,
         description="Slice triangle meshes into CuraEngine-style layers of parts "
         "(outline + holes), look at them and save them. Lengths on the command "
@@ -286,6 +308,16 @@ def _is_npz(path: Path) -> bool:
     return path.suffix.lower() == ".npz"
 
 
+def _scale(args: argparse.Namespace) -> float:
+    """``--scale`` (default 1), checked: the library's message names `scale`."""
+    if args.scale is None:
+        return 1.0
+    if not (math.isfinite(args.scale) and args.scale > 0):
+        raise CliInputError("--scale must be a positive finite number (file units "
+                            f"to mm); got {args.scale:g}")
+    return float(args.scale)
+
+
 def _load(path: Path | None, args: argparse.Namespace, settings: Any) -> Any:
     """The mesh (or the demo model), with the load report printed."""
     import numpy as np
@@ -306,9 +338,14 @@ def _load(path: Path | None, args: argparse.Namespace, settings: Any) -> Any:
     else:
         from vecslice.mesh import load_mesh
 
-        scale = 1.0 if args.scale is None else args.scale
+        scale = _scale(args)
         # compat="cura" reads the file as CuraEngine does (the default: omitted)
         if getattr(settings, "compat", "vecslice") != "vecslice":
+            if path.suffix.lower() != ".stl":
+                raise CliInputError(
+                    "--compat cura reads STL files only (CuraEngine's own reader); "
+                    f"got '{shown(path)}': slice it with --compat vecslice (the "
+                    "default)")
             compat = {"compat": settings.compat}
         mesh = _work(load_mesh, path, scale=scale, repair=not args.no_repair,
                      **compat)
@@ -339,7 +376,14 @@ def _slice(mesh: Any, args: argparse.Namespace, settings: Any,
 
     times = StageTimes()
     progress = not args.no_progress and sys.stderr.isatty()
-    model = _work(slice_mesh, mesh, settings, progress=progress, times=times)
+    try:
+        model = _work(slice_mesh, mesh, settings, progress=progress, times=times)
+    except LayerCountError as exc:  # the library's hint is SliceSettings(...)
+        raise CliInputError(
+            f"the slice has more layers than --max-layers {settings.max_layers} "
+            f"allows (up to {exc.layers_needed}). Memory and time grow with the "
+            "layers; if this is intended, raise the limit: --max-layers "
+            f"{exc.layers_needed} or more") from None
     _summary(model, {"load": load_seconds, **times.seconds},
              getattr(times, "counts", {}))
     if model.n_layers == 0:
@@ -411,8 +455,8 @@ def cmd_info(args: argparse.Namespace) -> None:
 
     from vecslice.mesh import check_mesh, load_mesh
 
-    scale = 1.0 if args.scale is None else args.scale
-    mesh = _work(load_mesh, args.file, scale=scale, repair=not args.no_repair)
+    mesh = _work(load_mesh, args.file, scale=_scale(args),
+                 repair=not args.no_repair)
     report = _work(check_mesh, mesh)
     if report.load_info is not None:  # its source: the path, shown as above
         info = dataclasses.replace(report.load_info, source=shown(args.file))

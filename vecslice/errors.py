@@ -11,6 +11,7 @@ __all__ = [
     "InputIndexError",
     "InputTypeError",
     "InputValueError",
+    "LayerCountError",
     "LayoutError",
     "MeshFileError",
     "MissingDependencyError",
@@ -43,6 +44,19 @@ class LayoutError(InputValueError):
 
 class SettingsError(InputValueError):
     """An invalid slicing setting (non-positive height, unknown option...)."""
+
+
+class LayerCountError(SettingsError):
+    """A slice would have more layers than ``max_layers`` allows.
+
+    ``layers_needed`` is the smallest limit the message suggests (at least the
+    layer count), so that a caller can word its own hint (the command line says
+    ``--max-layers N``).
+    """
+
+    def __init__(self, message: str, layers_needed: int) -> None:
+        super().__init__(message)
+        self.layers_needed = layers_needed
 
 
 class MeshFileError(VecsliceError, OSError):

@@ -238,3 +238,88 @@ def test_a_failed_write_names_the_output(capsys, cube, monkeypatch, out, what):
                       before_work=False)
     assert line == f"vecslice: error: cannot save {what} to '{out}': File too large"
     assert os.listdir() == ["cube.stl"]  # no temporary file left
+
+
+# --- D7: messages in command-line terms ---------------------------------------
+
+
+def test_max_layers_message_names_the_option(capsys, cube):
+    """Audit s24 D7: the hint was ``SliceSettings(max_layers=298)``."""
+    line = error_line(capsys, "cube.stl", "--max-layers", "50", before_work=False)
+    assert line == ("vecslice: error: the slice has more layers than --max-layers 50 "
+                    "allows (up to 98). Memory and time grow with the layers; if "
+                    "this is intended, raise the limit: --max-layers 98 or more")
+    code, out, err = run(capsys, "cube.stl", "--max-layers", "98")
+    assert code == 0 and "layers    98," in out, err
+    # adaptive layers stop at the limit: the hint is enough for any schedule
+    line = error_line(capsys, "cube.stl", "--adaptive-layers", "--max-layers", "20",
+                      before_work=False)
+    assert "more layers than --max-layers 20 allows (up to " in line
+    assert "SliceSettings" not in line and "`max_layers`" not in line
+    need = line.rsplit("--max-layers ", 1)[1].split()[0]
+    code, out, err = run(capsys, "cube.stl", "--adaptive-layers", "--max-layers",
+                         need)
+    assert code == 0, err
+
+
+def test_compat_cura_on_another_file_type(capsys, cube):
+    """Audit s24 D7: the message said ``compat='vecslice'``, "or pass a trimesh
+    object"."""
+    import trimesh
+
+    trimesh.creation.box((10, 10, 10)).export(cube.parent / "cube.obj")
+    line = error_line(capsys, "cube.obj", "--compat", "cura")
+    assert line == ("vecslice: error: --compat cura reads STL files only (CuraEngine's "
+                    "own reader); got 'cube.obj': slice it with --compat vecslice "
+                    "(the default)")
+    code, out, err = run(capsys, "cube.obj", "--compat", "vecslice")
+    assert code == 0, err
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "nan", "inf", "-inf", "-2e-3"])
+def test_scale_message_names_the_option(capsys, cube, value):
+    """Audit s24 D7: the message named `` `scale` ``, not ``--scale``."""
+    for command in (["slice"], ["info"], ["view"]):
+        line = error_line(capsys, *command, "cube.stl", "--scale", value)
+        assert line == ("vecslice: error: --scale must be a positive finite number "
+                        f"(file units to mm); got {float(value):g}")
+    assert os.listdir() == ["cube.stl"]
+
+
+def test_out_of_range_length_says_the_value_once(capsys, cube):
+    """Audit s24 D7: "--layer-height 2e+06 mm is out of range: `--layer-height`
+    must be below ... got 2000000.0 mm at flat index 0"."""
+    line = error_line(capsys, "cube.stl", "--layer-height", "2e6")
+    assert line == ("vecslice: error: --layer-height 2e+06 mm is out of range: it "
+                    "must be below 1.07374e+06 mm in magnitude (2**30 µm)")
+
+
+@pytest.mark.parametrize(("value", "um"), [
+    ("-5e-1", -500), ("-1E-1", -100), ("-.25", -250), ("-5.", -5000), ("-1e+0", -1000),
+])
+def test_negative_values_in_any_float_form(capsys, cube, value, um):
+    """Audit s24 D7: ``--adaptive-threshold -5e-1`` was "expected one argument"
+    (argparse took the value for an option); ``-0.5`` worked."""
+    for args in (["cube.stl"], ["slice", "cube.stl"]):
+        code, out, err = run(capsys, *args, "--adaptive-layers",
+                             "--adaptive-threshold", value, "-o", "t.npz")
+        assert code == 0, err
+        want = vs.slice_mesh(vs.load_mesh(cube), vs.SliceSettings(
+            adaptive_layers=True, adaptive_threshold=um))
+        assert (vs.load_sliced("t.npz").thickness == want.thickness).all()
+
+
+@pytest.mark.parametrize(("args", "line"), [
+    (["--layer-height", "-inf"], "--layer-height must be a finite length in mm; "
+     "got -inf"),
+    (["--layer-height", "-1e-1"], "bad value for --layer-height: -0.1 mm (-100 µm)"),
+    (["--max-deviation", "-1E+9"], "--max-deviation -1e+09 mm is out of range"),
+    (["--scale", "-1e3"], "--scale must be a positive finite number"),
+    (["--scale", "-INF"], "--scale must be a positive finite number"),
+])  # fmt: skip
+def test_negative_values_reach_the_value_checks(capsys, cube, args, line):
+    assert error_line(capsys, "cube.stl", *args).startswith(
+        f"vecslice: error: {line}")
+    assert error_line(capsys, "preview", "cube.stl", "--z", "-1e-3", "-o",
+                      "a.svg", before_work=False).startswith(
+        "vecslice: error: --z must be a height from 0 to")
