@@ -307,14 +307,22 @@ def check_target(path: str, where: str | None = None) -> str:
     StorageFileError
         If ``path`` is a symbolic link loop, a directory, not a regular file (a
         FIFO, a device, a socket) or a read-only file: no write permission for
-        the caller, or none at all (so even root does not replace it). The
-        message names ``path`` and what it is.
+        the caller, or none at all (so even root does not replace it); or if it
+        is missing and so is the directory it would be created in (also the
+        directory a dangling symbolic link points into). The message names
+        ``path`` and what it is.
     """
     where = where or f"cannot write {path!r}"
     target = _resolve(path, where)
     try:
         st = os.stat(target)
-    except FileNotFoundError:
+    except FileNotFoundError:  # created by the write: its directory must exist
+        folder = os.path.dirname(target) or "."
+        if not os.path.isdir(folder):
+            link = (f"it is a symbolic link to {target!r}, whose" if target != path
+                    else "the")
+            raise StorageFileError(f"{where}: {link} directory {folder!r} does not "
+                                   "exist") from None
         return target
     except OSError as exc:
         raise StorageFileError(f"{where}: {exc.strerror or exc}") from None

@@ -323,3 +323,19 @@ def test_negative_values_reach_the_value_checks(capsys, cube, args, line):
     assert error_line(capsys, "preview", "cube.stl", "--z", "-1e-3", "-o",
                       "a.svg", before_work=False).startswith(
         "vecslice: error: --z must be a height from 0 to")
+
+
+# --- D8: -o through a dangling symbolic link ----------------------------------
+
+
+@pytest.mark.parametrize("command", [["slice"], ["view"], ["preview", "--layer", "0"]])
+def test_dangling_link_into_a_missing_directory_is_refused_first(capsys, cube,
+                                                                 command):
+    """Audit s24 D8: the whole slice ran before the save failed."""
+    out = {"slice": "out.npz", "view": "out.html", "preview": "out.svg"}[command[0]]
+    os.symlink("/nonexistent/dir/" + out, out)
+    line = error_line(capsys, command[0], "cube.stl", *command[1:], "-o", out)
+    assert line == (f"vecslice: error: -o '{out}': it is a symbolic link to "
+                    f"'/nonexistent/dir/{out}', whose directory '/nonexistent/dir' "
+                    "does not exist")
+    assert sorted(os.listdir()) == ["cube.stl", out]
