@@ -6,10 +6,14 @@ short. Nothing here imports numba, trimesh or matplotlib.
 
 from __future__ import annotations
 
+import argparse
+import math
 import os
+import re
 import sys
 import threading
 from dataclasses import fields
+from decimal import ROUND_HALF_UP, Decimal, InvalidOperation
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -18,15 +22,19 @@ from vecslice.errors import InputValueError
 __all__ = [
     "COMPILE_MESSAGE",
     "CliInputError",
+    "CliParser",
     "CompileNotice",
     "check_output",
     "cli_path",
     "flush_and_exit",
     "human_bytes",
     "load_info_lines",
+    "mm_to_microns",
+    "mm_value",
     "note",
     "say",
     "shown",
+    "shown_mm",
     "size_hint",
 ]
 
@@ -35,6 +43,75 @@ COMPILE_MESSAGE = "vecslice: compiling kernels, first run only"
 
 class CliInputError(InputValueError):
     """A command-line value that vecslice rejects (exit status 1)."""
+
+
+# what argparse takes for a negative number (a value), not an option: its own
+# -5 and -.5, and also -5e-1, -1E+3, -5., -inf and -nan (any case), which float()
+# reads
+_NEGATIVE_NUMBER = re.compile(
+    r"^-(\d+\.?\d*|\.\d+)(e[-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+
+
+class CliParser(argparse.ArgumentParser):
+    """An ArgumentParser that reads ``-5e-1`` and ``-inf`` as values.
+
+    Its sub-parsers are CliParsers too (``add_subparsers`` makes sub-parsers of
+    the parser's own class).
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # argparse's own matcher (Python 3.11) knows only forms like -5 and -.5
+        self._negative_number_matcher = _NEGATIVE_NUMBER
+
+
+def mm_value(text: str) -> Decimal:
+    """A length in mm as typed, as the exact decimal it names (an argparse type).
+
+    What ``float()`` reads is accepted (``1e-3``, ``inf``, ``nan``, ``1_000``),
+    nothing else; ``0.5005`` stays 0.5005, not the binary float just below it.
+    """
+    try:
+        number = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid float value: {text!r}") from None
+    try:
+        return Decimal(text.strip())
+    except InvalidOperation:  # a form float() reads and Decimal does not
+        return Decimal(number)
+
+
+def shown_mm(value: Decimal) -> str:
+    """A length in mm for messages, as ``{:g}`` shows a float (``2e+06``)."""
+    f = float(value)
+    if value.is_finite() and value and (f == 0 or not math.isfinite(f)):
+        return f"{value:g}"  # beyond the range of floats (1e400, 1e-400)
+    return f"{f:g}"
+
+
+def mm_to_microns(value: Decimal, flag: str) -> int:
+    """``value`` mm in µm, rounding half away from zero, exactly.
+
+    Raises
+    ------
+    CliInputError
+        If ``value`` is not finite, or its magnitude reaches ``COORD_LIMIT`` µm.
+    """
+    from vecslice.units import COORD_LIMIT
+
+    if not value.is_finite():
+        raise CliInputError(f"{flag} must be a finite length in mm; got "
+                            f"{shown_mm(value)}")
+    out_of_range = CliInputError(
+        f"{flag} {shown_mm(value)} mm is out of range: it must be below "
+        f"{COORD_LIMIT / 1000:g} mm in magnitude (2**30 µm)")
+    if abs(value) >= COORD_LIMIT:  # (in mm): far out, and quantize stays exact
+        raise out_of_range
+    # one rounding, of the decimal itself: half away from zero for both signs
+    um = int(value.quantize(Decimal("0.001"), rounding=ROUND_HALF_UP).scaleb(3))
+    if abs(um) >= COORD_LIMIT:
+        raise out_of_range
+    return um
 
 
 def shown(path: str | os.PathLike[str]) -> str:

@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-import re
 import sys
 import time
 from collections.abc import Sequence
@@ -27,15 +26,19 @@ from typing import Any
 
 from vecslice._cli_support import (
     CliInputError,
+    CliParser,
     CompileNotice,
     check_output,
     cli_path,
     flush_and_exit,
     human_bytes,
     load_info_lines,
+    mm_to_microns,
+    mm_value,
     note,
     say,
     shown,
+    shown_mm,
     size_hint,
 )
 from vecslice.errors import LayerCountError, VecsliceError
@@ -51,8 +54,9 @@ INTERRUPTED = 130
 class Option:
     """A command-line option that sets one :class:`vecslice.SliceSettings` field.
 
-    ``kind`` is ``"mm"`` (a length in mm, converted once to int µm, rounding half
-    away from zero as :func:`vecslice.to_microns` does), ``"int"`` (a count),
+    ``kind`` is ``"mm"`` (a length in mm, converted once to int µm from the
+    decimal typed, rounding half away from zero, exactly; see
+    :func:`vecslice._cli_support.mm_to_microns`), ``"int"`` (a count),
     ``"choice"`` (one of ``choices``), ``"on"`` or ``"off"`` (a flag setting the
     field to True/False).
     The default shown in ``--help`` is ``SliceSettings()``'s, i.e. Cura's.
@@ -114,7 +118,7 @@ def _add_slice_options(parser: argparse.ArgumentParser) -> None:
     for opt in SLICE_OPTIONS:
         default = getattr(defaults, opt.setting)
         if opt.kind == "mm":
-            group.add_argument(opt.flag, dest=opt.setting, type=float, metavar="MM",
+            group.add_argument(opt.flag, dest=opt.setting, type=mm_value, metavar="MM",
                                help=f"{opt.help} (default {default / 1000:g})")
         elif opt.kind == "int":
             group.add_argument(opt.flag, dest=opt.setting, type=int, metavar="N",
@@ -150,35 +154,25 @@ def settings_from_args(args: argparse.Namespace) -> Any:
     """
     from vecslice.errors import InputValueError
     from vecslice.settings import SliceSettings
-    from vecslice.units import COORD_LIMIT, to_microns
-
     if not getattr(args, "adaptive_layers", None):
         for flag in ADAPTIVE_ONLY:
             v = getattr(args, _SETTING[flag], None)
             if v is not None:  # typed: the default is None
                 raise CliInputError(f"{flag} only applies with --adaptive-layers; "
-                                    f"got {v:g} without it")
+                                    f"got {shown_mm(v)} without it")
     values: dict[str, Any] = {}
     for opt in SLICE_OPTIONS:
         v = getattr(args, opt.setting, None)
         if v is None:
             continue
         if opt.kind == "mm":
-            if not math.isfinite(v):
-                raise CliInputError(f"{opt.flag} must be a finite length in mm; "
-                                    f"got {v}")
-            try:
-                v = int(to_microns(v, name=opt.flag))
-            except InputValueError:
-                raise CliInputError(f"{opt.flag} {v:g} mm is out of range: it must "
-                                    f"be below {COORD_LIMIT / 1000:g} mm in "
-                                    "magnitude (2**30 µm)") from None
+            v = mm_to_microns(v, opt.flag)
         try:
             SliceSettings(**{opt.setting: v})
         except InputValueError as exc:
-            shown = f"{getattr(args, opt.setting):g} mm ({v} µm)" \
+            text = f"{shown_mm(getattr(args, opt.setting))} mm ({v} µm)" \
                 if opt.kind == "mm" else repr(v)
-            raise CliInputError(f"bad value for {opt.flag}: {shown}: {exc}") from None
+            raise CliInputError(f"bad value for {opt.flag}: {text}: {exc}") from None
         values[opt.setting] = v
     return SliceSettings(**values)
 
@@ -193,26 +187,6 @@ def _slicing_given(args: argparse.Namespace) -> list[str]:
     return given
 
 
-# what argparse takes for a negative number (a value), not an option: its own
-# -5 and -.5, and also -5e-1, -1E+3, -5., -inf and -nan (any case), which float()
-# reads
-_NEGATIVE_NUMBER = re.compile(
-    r"^-(\d+\.?\d*|\.\d+)(e[-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
-
-
-class _Parser(argparse.ArgumentParser):
-    """An ArgumentParser that reads ``-5e-1`` and ``-inf`` as values.
-
-    Its sub-parsers are ``_Parser`` too (``add_subparsers`` makes sub-parsers of
-    the parser's own class).
-    """
-
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
-        # argparse's own matcher (Python 3.11) knows only forms like -5 and -.5
-        self._negative_number_matcher = _NEGATIVE_NUMBER
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``vecslice`` (all subcommands)."""
     from vecslice import __version__
@@ -222,7 +196,7 @@ def build_parser() -> argparse.ArgumentParser:
     # error, never taken for a prefix of another (`view --layer 10` must not set
     # --layer-height)
     common: dict[str, Any] = {"formatter_class": fmt, "allow_abbrev": False}
-    p = _Parser(
+    p = CliParser(
         prog="vecslice", **common,
         description="Slice triangle meshes into CuraEngine-style layers of parts "
         "(outline + holes), look at them and save them. Lengths on the command "
@@ -270,7 +244,7 @@ def build_parser() -> argparse.ArgumentParser:
     which = pv.add_mutually_exclusive_group(required=True)
     which.add_argument("--layer", type=int, metavar="N",
                        help="layer index, 0 = first (negative: from the top)")
-    which.add_argument("--z", type=float, metavar="MM",
+    which.add_argument("--z", type=mm_value, metavar="MM",
                        help="the layer printed at this height above the bed")
     pv.add_argument("-o", "--output", required=True,
                     metavar="OUT.png|OUT.svg", help="the picture to write")
@@ -503,14 +477,15 @@ def _layer_for(model: Any, args: argparse.Namespace) -> int:
             raise CliInputError(f"--layer must be a layer index from 0 to {n - 1} "
                                 f"(or -{n} to -1 from the top); got {args.layer}")
         return args.layer % n
-    z = args.z
-    top = float(model.print_z[-1]) / 1000.0
-    if not math.isfinite(z) or not 0.0 <= z <= top:
-        raise CliInputError(f"--z must be a height from 0 to {top:g} mm (the top "
-                            f"of the last layer); got {z:g}")
-    from vecslice.units import to_microns
-
-    return int(np.searchsorted(model.print_z, to_microns(z, name="--z")))
+    z, top = args.z, int(model.print_z[-1])
+    try:
+        um: int | None = mm_to_microns(z, "--z")  # compared in µm, as stored
+    except CliInputError:  # not finite, or far out
+        um = None
+    if um is None or z < 0 or um > top:
+        raise CliInputError(f"--z must be a height from 0 to {top / 1000:g} mm (the "
+                            f"top of the last layer); got {shown_mm(z)}")
+    return int(np.searchsorted(model.print_z, um))
 
 
 def cmd_preview(args: argparse.Namespace) -> None:

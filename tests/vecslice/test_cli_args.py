@@ -339,3 +339,89 @@ def test_dangling_link_into_a_missing_directory_is_refused_first(capsys, cube,
                     f"'/nonexistent/dir/{out}', whose directory '/nonexistent/dir' "
                     "does not exist")
     assert sorted(os.listdir()) == ["cube.stl", out]
+
+
+# --- D9: lengths converted from the decimal typed ------------------------------
+
+
+def _settings(*args):
+    from vecslice.cli import build_parser, settings_from_args
+
+    return settings_from_args(build_parser().parse_args(["slice", *args]))
+
+
+@pytest.mark.parametrize(("flag", "setting"), [
+    ("--layer-height", "layer_height"), ("--max-deviation", "max_deviation"),
+    ("--initial-layer-height", "initial_layer_height"),
+])  # fmt: skip
+@pytest.mark.parametrize(("text", "um"), [
+    ("0.5005", 501), ("0.5015", 502), ("0.0255", 26), ("0.1005", 101), ("0.1", 100),
+    ("0.0625", 63), ("0.2", 200), ("1e-1", 100), ("0.5004999999", 500),
+    ("0.50049999999999999999999999999999", 500), ("2.5e-3", 3),
+    ("1_000.0005", 1_000_001),
+])  # fmt: skip
+def test_lengths_round_half_away_from_zero_exactly(flag, setting, text, um):
+    """Audit s24 D9: ``0.5005`` gave 500 µm (the float just below 0.5005 was
+    rounded), ``0.0255`` 26."""
+    assert getattr(_settings(flag, text), setting) == um
+
+
+@pytest.mark.parametrize(("text", "um"), [
+    ("-0.5005", -501), ("-0.0255", -26), ("-0.0005", -1), ("-0.0004999", 0),
+    ("-0", 0), ("0.0005", 1), ("-1e-1", -100), ("-1.2345", -1235),
+])  # fmt: skip
+def test_negative_lengths_round_half_away_from_zero(text, um):
+    got = _settings("--adaptive-layers", "--adaptive-threshold", text)
+    assert got.adaptive_threshold == um
+
+
+def test_first_layer_of_a_half_micron_length(capsys, cube):
+    code, out, err = run(capsys, "cube.stl", "--initial-layer-height", "0.5005",
+                         "--layer-height", "0.0255", "-o", "c.npz")
+    assert code == 0, err
+    model = vs.load_sliced("c.npz")
+    assert model.thickness[0] == 501 and set(model.thickness[1:].tolist()) == {26}
+    assert "z 0.501 to " in out
+
+
+@pytest.mark.parametrize(("text", "line"), [
+    ("nan", "--layer-height must be a finite length in mm; got nan"),
+    ("-NaN", "--layer-height must be a finite length in mm; got nan"),
+    ("inf", "--layer-height must be a finite length in mm; got inf"),
+    ("1e400", "--layer-height 1e+400 mm is out of range: it must be below "
+     "1.07374e+06 mm in magnitude (2**30 µm)"),
+    ("1073741.8235", "--layer-height 1.07374e+06 mm is out of range"),
+    ("-1073741.8235", "--layer-height -1.07374e+06 mm is out of range"),
+    ("1e-400", "bad value for --layer-height: 1e-400 mm (0 µm)"),
+    ("0.0004999", "bad value for --layer-height: 0.0004999 mm (0 µm)"),
+])  # fmt: skip
+def test_bad_lengths_keep_their_messages(capsys, cube, text, line):
+    assert error_line(capsys, "cube.stl", "--layer-height", text).startswith(
+        f"vecslice: error: {line}")
+
+
+def test_largest_length_in_range():
+    # 2**30 - 1 µm = 1073741.823 mm; .8235 would round to 2**30
+    assert _settings("--max-resolution", "1073741.8234").max_resolution == 2**30 - 1
+
+
+@pytest.mark.parametrize("text", ["abc", "0x10", "", "1,5", "snan"])
+def test_what_float_does_not_read_is_a_usage_error(capsys, cube, text):
+    line = error_line(capsys, "cube.stl", "--layer-height", text, code=2)
+    assert line.endswith(f"argument --layer-height: invalid float value: {text!r}")
+
+
+def test_z_is_compared_in_microns(capsys, cube):
+    """``--z`` is a length too: the top of a layer, typed as printed, is found."""
+    code, _, err = run(capsys, "cube.stl", "--layer-height", "0.3", "-o", "c.npz")
+    assert code == 0, err
+    model = vs.load_sliced("c.npz")
+    top = model.print_z[-1] / 1000  # 9.9 mm: 9.899999999999999 as a float
+    for z, k in (("0", 0), ("-0", 0), ("0.3", 0), ("0.3005", 1), ("0.6", 1),
+                 (f"{top:g}", model.n_layers - 1)):
+        code, out, err = run(capsys, "preview", "c.npz", "--z", z, "-o", "a.svg")
+        assert code == 0 and out.startswith(f"layer {k} of "), (z, out, err)
+    for z in ("-0.0001", f"{top + 0.001:g}", "nan", "-inf", "1e400"):
+        line = error_line(capsys, "preview", "c.npz", "--z", z, "-o", "a.svg")
+        assert line.startswith(f"vecslice: error: --z must be a height from 0 to "
+                               f"{top:g} mm (the top of the last layer); got ")
