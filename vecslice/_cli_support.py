@@ -266,11 +266,11 @@ def check_output(path: Path | None, suffixes: tuple[str, ...] = (),
             raise CliInputError(f"{flag} '{name}' is the input file "
                                 f"'{shown(source)}': vecslice never overwrites its "
                                 "input; choose another output name")
+    if path.is_dir():
+        raise CliInputError(f"{flag} '{name}' is a directory; give a file name")
     if suffixes and path.suffix.lower() not in suffixes:
         raise CliInputError(f"{flag} must name a {' or '.join(suffixes)} file; "
                             f"got '{name}'")
-    if path.is_dir():
-        raise CliInputError(f"{flag} '{name}' is a directory; give a file name")
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.exists():
         raise CliInputError(f"{flag} '{name}': the directory '{shown(parent)}' "

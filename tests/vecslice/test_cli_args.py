@@ -94,6 +94,14 @@ def test_output_naming_a_directory_is_refused(capsys, cube, target):
     assert sorted(p.name for p in cube.parent.iterdir()) == ["cube.stl", "sub"]
 
 
+def test_output_that_is_a_directory_is_said_to_be_one(capsys, cube):
+    (cube.parent / "sub").mkdir()
+    for args in (["cube.stl"], ["view", "cube.stl"],
+                 ["preview", "cube.stl", "--layer", "0"]):
+        line = error_line(capsys, *args, "-o", "sub")
+        assert line == "vecslice: error: -o 'sub' is a directory; give a file name"
+
+
 @pytest.mark.parametrize(("args", "flag"), [
     (["view", ""], "FILE"),
     (["info", ""], "FILE"),
