@@ -16,7 +16,6 @@ from numpy.typing import ArrayLike, NDArray
 from vecslice.errors import (
     InputTypeError,
     InputValueError,
-    LayerCountError,
     LayoutError,
     SettingsError,
 )
@@ -174,28 +173,30 @@ def check_bool(value: object, name: str, *, setting: bool = False) -> bool:
 
 def check_layer_count(n: int, max_layers: int, why: str, fix: str,
                       needed: int | None = None) -> None:
-    """Raise a LayerCountError if ``n`` layers exceed ``max_layers``.
+    """Raise a SettingsError if ``n`` layers exceed ``max_layers``.
 
     Called before any per-layer allocation. ``why`` says where ``n`` comes from
     (e.g. "a mesh 1000000000 µm tall at layer_height 100 µm") and ``fix`` how to
     raise the limit, with ``{n}`` for the limit to suggest (e.g.
     "SliceSettings(max_layers={n})"): ``needed``, by default ``n``. The error's
-    ``layers_needed`` is that limit.
+    ``layers_needed`` attribute is that limit.
 
     Examples
     --------
     >>> check_layer_count(7, 5, "7 heights", "f(max_layers={n})")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    vecslice.errors.LayerCountError: the layer count must be <= `max_layers` (5); ...
+    vecslice.errors.SettingsError: the layer count must be <= `max_layers` (5); ...
     """
     if n > max_layers:
         need = n if needed is None else needed
-        raise LayerCountError(
+        error = SettingsError(
             f"the layer count must be <= `max_layers` ({max_layers}); got {n} layers "
             f"({why}). Memory and time grow with the layers; if this is intended, "
-            f"raise the limit: {fix.replace('{n}', str(need))} or more", need
+            f"raise the limit: {fix.replace('{n}', str(need))} or more"
         )
+        error.layers_needed = need
+        raise error
 
 
 def check_option(value: object, options: Sequence[str], name: str) -> str:

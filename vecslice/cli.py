@@ -41,7 +41,7 @@ from vecslice._cli_support import (
     shown_mm,
     size_hint,
 )
-from vecslice.errors import LayerCountError, VecsliceError
+from vecslice.errors import SettingsError, VecsliceError
 
 __all__ = ["SLICE_OPTIONS", "Option", "main", "run"]
 
@@ -352,8 +352,10 @@ def _slice(mesh: Any, args: argparse.Namespace, settings: Any,
     progress = not args.no_progress and sys.stderr.isatty()
     try:
         model = _work(slice_mesh, mesh, settings, progress=progress, times=times)
-    except LayerCountError as exc:  # the library's hint is SliceSettings(...)
-        raise CliInputError(
+    except SettingsError as exc:
+        if exc.layers_needed is None:
+            raise
+        raise CliInputError(  # the library's hint is SliceSettings(max_layers=N)
             f"the slice has more layers than --max-layers {settings.max_layers} "
             f"allows (up to {exc.layers_needed}). Memory and time grow with the "
             "layers; if this is intended, raise the limit: --max-layers "

@@ -11,7 +11,6 @@ __all__ = [
     "InputIndexError",
     "InputTypeError",
     "InputValueError",
-    "LayerCountError",
     "LayoutError",
     "MeshFileError",
     "MissingDependencyError",
@@ -43,20 +42,15 @@ class LayoutError(InputValueError):
 
 
 class SettingsError(InputValueError):
-    """An invalid slicing setting (non-positive height, unknown option...)."""
+    """An invalid slicing setting (non-positive height, unknown option...).
 
-
-class LayerCountError(SettingsError):
-    """A slice would have more layers than ``max_layers`` allows.
-
-    ``layers_needed`` is the smallest limit the message suggests (at least the
-    layer count), so that a caller can word its own hint (the command line says
-    ``--max-layers N``).
+    ``layers_needed``: when a slice would have more layers than ``max_layers``
+    allows, the smallest limit the message suggests (at least the layer count),
+    so that a caller can word its own hint (the command line says
+    ``--max-layers N``); None for other errors.
     """
 
-    def __init__(self, message: str, layers_needed: int) -> None:
-        super().__init__(message)
-        self.layers_needed = layers_needed
+    layers_needed: int | None = None
 
 
 class MeshFileError(VecsliceError, OSError):
