@@ -6,24 +6,35 @@ short. Nothing here imports numba, trimesh or matplotlib.
 
 from __future__ import annotations
 
+import argparse
+import math
 import os
+import re
 import sys
 import threading
 from dataclasses import fields
+from decimal import ROUND_HALF_UP, Decimal, InvalidOperation
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 from vecslice.errors import InputValueError
 
 __all__ = [
     "COMPILE_MESSAGE",
     "CliInputError",
+    "CliParser",
     "CompileNotice",
     "check_output",
+    "cli_path",
     "flush_and_exit",
     "human_bytes",
     "load_info_lines",
+    "mm_to_microns",
+    "mm_value",
     "note",
+    "say",
+    "shown",
+    "shown_mm",
     "size_hint",
 ]
 
@@ -34,9 +45,108 @@ class CliInputError(InputValueError):
     """A command-line value that vecslice rejects (exit status 1)."""
 
 
+# what argparse takes for a negative number (a value), not an option: its own
+# -5 and -.5, and also -5e-1, -1E+3, -5., -inf and -nan (any case), which float()
+# reads
+_NEGATIVE_NUMBER = re.compile(
+    r"^-(\d+\.?\d*|\.\d+)(e[-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+
+
+class CliParser(argparse.ArgumentParser):
+    """An ArgumentParser that reads ``-5e-1`` and ``-inf`` as values.
+
+    Its sub-parsers are CliParsers too (``add_subparsers`` makes sub-parsers of
+    the parser's own class).
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # argparse's own matcher (Python 3.11) knows only forms like -5 and -.5
+        self._negative_number_matcher = _NEGATIVE_NUMBER
+
+
+def mm_value(text: str) -> Decimal:
+    """A length in mm as typed, as the exact decimal it names (an argparse type).
+
+    What ``float()`` reads is accepted (``1e-3``, ``inf``, ``nan``, ``1_000``),
+    nothing else; ``0.5005`` stays 0.5005, not the binary float just below it.
+    """
+    try:
+        number = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid float value: {text!r}") from None
+    try:
+        return Decimal(text.strip())
+    except InvalidOperation:  # a form float() reads and Decimal does not
+        return Decimal(number)
+
+
+def shown_mm(value: Decimal) -> str:
+    """A length in mm for messages, as ``{:g}`` shows a float (``2e+06``)."""
+    f = float(value)
+    if value.is_finite() and value and (f == 0 or not math.isfinite(f)):
+        return f"{value:g}"  # beyond the range of floats (1e400, 1e-400)
+    return f"{f:g}"
+
+
+def mm_to_microns(value: Decimal, flag: str) -> int:
+    """``value`` mm in µm, rounding half away from zero, exactly.
+
+    Raises
+    ------
+    CliInputError
+        If ``value`` is not finite, or its magnitude reaches ``COORD_LIMIT`` µm.
+    """
+    from vecslice.units import COORD_LIMIT
+
+    if not value.is_finite():
+        raise CliInputError(f"{flag} must be a finite length in mm; got "
+                            f"{shown_mm(value)}")
+    out_of_range = CliInputError(
+        f"{flag} {shown_mm(value)} mm is out of range: it must be below "
+        f"{COORD_LIMIT / 1000:g} mm in magnitude (2**30 µm)")
+    if abs(value) >= COORD_LIMIT:  # (in mm): far out, and quantize stays exact
+        raise out_of_range
+    # one rounding, of the decimal itself: half away from zero for both signs
+    um = int(value.quantize(Decimal("0.001"), rounding=ROUND_HALF_UP).scaleb(3))
+    if abs(um) >= COORD_LIMIT:
+        raise out_of_range
+    return um
+
+
+def shown(path: str | os.PathLike[str]) -> str:
+    r"""How the command line shows ``path``: its bytes as UTF-8, others escaped.
+
+    A file name is bytes; one that is not valid UTF-8 (``caf\xe9.stl`` in
+    Latin-1) reaches Python with surrogates, which no strict encoder accepts.
+    Every path printed, or put into a page, goes through here: the same
+    ``caf\xe9.stl`` everywhere, never a UnicodeEncodeError.
+    """
+    return os.fsencode(path).decode("utf-8", "backslashreplace")
+
+
+def say(text: str, stream: TextIO | None = None, *, flush: bool = False) -> None:
+    """Print ``text`` and a newline on ``stream`` (default: stdout).
+
+    Characters the stream's encoding lacks (``µ`` on an ASCII stream, a
+    surrogate under ``PYTHONIOENCODING=utf-8``) are written as backslash escapes
+    instead of raising UnicodeEncodeError, which would end the run with a
+    traceback after its work was done.
+    """
+    stream = stream or sys.stdout
+    try:
+        stream.write(text + "\n")
+    except UnicodeEncodeError:  # raised before anything is written
+        encoding = getattr(stream, "encoding", None) or "ascii"
+        safe = text.encode(encoding, "backslashreplace").decode(encoding, "replace")
+        stream.write(safe + "\n")
+    if flush:
+        stream.flush()
+
+
 def note(message: str) -> None:
     """One line on stderr, prefixed ``vecslice: ``."""
-    print(f"vecslice: {message}", file=sys.stderr, flush=True)
+    say(f"vecslice: {message}", sys.stderr, flush=True)
 
 
 class CompileNotice:
@@ -109,6 +219,26 @@ class CompileNotice:
                   flush=True)
 
 
+def cli_path(text: str, flag: str, *, output: bool = False) -> Path:
+    """The path a command-line argument names, refusing what a Path would change.
+
+    ``Path("")`` is ``.`` and ``Path("out/")`` is ``out``: an empty argument, and an
+    output that ends with a path separator (or in ``.`` or ``..``), name no file.
+
+    Raises
+    ------
+    CliInputError
+        If ``text`` is empty, or ``output`` and ``text`` names a directory.
+    """
+    if not text:
+        raise CliInputError(f"{flag} is an empty string; give a file name")
+    seps = tuple(s for s in (os.sep, os.altsep) if s)
+    if output and (text.endswith(seps) or os.path.basename(text) in (".", "..")):
+        raise CliInputError(f"{flag} '{shown(text)}' names a directory, not a "
+                            "file; give a file name")
+    return Path(text)
+
+
 def check_output(path: Path | None, suffixes: tuple[str, ...] = (),
                  flag: str = "-o",
                  inputs: tuple[Path | None, ...] = ()) -> Path | None:
@@ -130,28 +260,29 @@ def check_output(path: Path | None, suffixes: tuple[str, ...] = (),
     """
     if path is None:
         return None
+    name = shown(path)
     for source in inputs:
         if source is not None and _same_file(path, source):
-            raise CliInputError(f"{flag} '{path}' is the input file '{source}': "
-                                "vecslice never overwrites its input; choose "
-                                "another output name")
+            raise CliInputError(f"{flag} '{name}' is the input file "
+                                f"'{shown(source)}': vecslice never overwrites its "
+                                "input; choose another output name")
+    if path.is_dir():
+        raise CliInputError(f"{flag} '{name}' is a directory; give a file name")
     if suffixes and path.suffix.lower() not in suffixes:
         raise CliInputError(f"{flag} must name a {' or '.join(suffixes)} file; "
-                            f"got '{path}'")
-    if path.is_dir():
-        raise CliInputError(f"{flag} '{path}' is a directory; give a file name")
+                            f"got '{name}'")
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.exists():
-        raise CliInputError(f"{flag} '{path}': the directory '{parent}' does not "
-                            "exist")
+        raise CliInputError(f"{flag} '{name}': the directory '{shown(parent)}' "
+                            "does not exist")
     if not parent.is_dir():
-        raise CliInputError(f"{flag} '{path}': '{parent}' is not a directory")
+        raise CliInputError(f"{flag} '{name}': '{shown(parent)}' is not a directory")
     if not os.access(parent, os.W_OK | os.X_OK):
-        raise CliInputError(f"{flag} '{path}': the directory '{parent}' is not "
-                            "writable")
+        raise CliInputError(f"{flag} '{name}': the directory '{shown(parent)}' "
+                            "is not writable")
     from vecslice.npz import check_target
 
-    check_target(str(path), where=f"{flag} '{path}'")
+    check_target(str(path), where=f"{flag} '{name}'")
     return path
 
 

@@ -13,7 +13,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice.errors import InputTypeError, InputValueError, LayoutError, SettingsError
+from vecslice.errors import (
+    InputTypeError,
+    InputValueError,
+    LayoutError,
+    SettingsError,
+)
 from vecslice.units import COORD_LIMIT
 
 __all__ = [
@@ -166,12 +171,15 @@ def check_bool(value: object, name: str, *, setting: bool = False) -> bool:
     return bool(value)
 
 
-def check_layer_count(n: int, max_layers: int, why: str, fix: str) -> None:
+def check_layer_count(n: int, max_layers: int, why: str, fix: str,
+                      needed: int | None = None) -> None:
     """Raise a SettingsError if ``n`` layers exceed ``max_layers``.
 
     Called before any per-layer allocation. ``why`` says where ``n`` comes from
     (e.g. "a mesh 1000000000 µm tall at layer_height 100 µm") and ``fix`` how to
-    raise the limit, with ``{n}`` for the count (e.g. "SliceSettings(max_layers={n})").
+    raise the limit, with ``{n}`` for the limit to suggest (e.g.
+    "SliceSettings(max_layers={n})"): ``needed``, by default ``n``. The error's
+    ``layers_needed`` attribute is that limit.
 
     Examples
     --------
@@ -181,11 +189,14 @@ def check_layer_count(n: int, max_layers: int, why: str, fix: str) -> None:
     vecslice.errors.SettingsError: the layer count must be <= `max_layers` (5); ...
     """
     if n > max_layers:
-        raise SettingsError(
+        need = n if needed is None else needed
+        error = SettingsError(
             f"the layer count must be <= `max_layers` ({max_layers}); got {n} layers "
             f"({why}). Memory and time grow with the layers; if this is intended, "
-            f"raise the limit: {fix.replace('{n}', str(n))} or more"
+            f"raise the limit: {fix.replace('{n}', str(need))} or more"
         )
+        error.layers_needed = need
+        raise error
 
 
 def check_option(value: object, options: Sequence[str], name: str) -> str:

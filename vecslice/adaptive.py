@@ -269,6 +269,6 @@ def adaptive_layer_heights(
             len(top), s.max_layers,
             f"adaptive layers stopped there; down to {hmin} µm thick on an object "
             f"{height} µm tall they can be up to {most}",
-            f"SliceSettings(max_layers={most})",
+            "SliceSettings(max_layers={n})", needed=most,
         )
     return top + dz, top, thickness

@@ -42,7 +42,15 @@ class LayoutError(InputValueError):
 
 
 class SettingsError(InputValueError):
-    """An invalid slicing setting (non-positive height, unknown option...)."""
+    """An invalid slicing setting (non-positive height, unknown option...).
+
+    ``layers_needed``: when a slice would have more layers than ``max_layers``
+    allows, the smallest limit the message suggests (at least the layer count),
+    so that a caller can word its own hint (the command line says
+    ``--max-layers N``); None for other errors.
+    """
+
+    layers_needed: int | None = None
 
 
 class MeshFileError(VecsliceError, OSError):

@@ -271,7 +271,7 @@ def read_array(p: str, zf: zipfile.ZipFile, member: Member) -> NDArray[Any]:
     return out
 
 
-def _resolve(p: str) -> str:
+def _resolve(p: str, where: str) -> str:
     """The file a write to ``p`` should replace: symbolic links are followed."""
     if not os.path.islink(p):
         return p
@@ -279,9 +279,7 @@ def _resolve(p: str) -> str:
         os.stat(p)
     except OSError as exc:
         if exc.errno == errno.ELOOP:
-            raise StorageFileError(
-                f"cannot save a vecslice model to {p!r}: it is a symbolic link loop"
-            ) from None
+            raise StorageFileError(f"{where}: it is a symbolic link loop") from None
     return os.path.realpath(p)
 
 
@@ -309,14 +307,22 @@ def check_target(path: str, where: str | None = None) -> str:
     StorageFileError
         If ``path`` is a symbolic link loop, a directory, not a regular file (a
         FIFO, a device, a socket) or a read-only file: no write permission for
-        the caller, or none at all (so even root does not replace it). The
-        message names ``path`` and what it is.
+        the caller, or none at all (so even root does not replace it); or if it
+        is missing and so is the directory it would be created in (also the
+        directory a dangling symbolic link points into). The message names
+        ``path`` and what it is.
     """
     where = where or f"cannot write {path!r}"
-    target = _resolve(path)
+    target = _resolve(path, where)
     try:
         st = os.stat(target)
-    except FileNotFoundError:
+    except FileNotFoundError:  # created by the write: its directory must exist
+        folder = os.path.dirname(target) or "."
+        if not os.path.isdir(folder):
+            link = (f"it is a symbolic link to {target!r}, whose" if target != path
+                    else "the")
+            raise StorageFileError(f"{where}: {link} directory {folder!r} does not "
+                                   "exist") from None
         return target
     except OSError as exc:
         raise StorageFileError(f"{where}: {exc.strerror or exc}") from None
@@ -378,7 +384,8 @@ def _sigterm_raises() -> Iterator[None]:
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
-def write_atomic(path: str, write: Callable[[IO[bytes]], None]) -> None:
+def write_atomic(path: str, write: Callable[[IO[bytes]], None], *,
+                 what: str = "a vecslice model") -> None:
     """Write ``path`` through ``write(file)``: all of it or nothing.
 
     The data goes to a hidden temporary file beside the target (beside the file
@@ -389,17 +396,28 @@ def write_atomic(path: str, write: Callable[[IO[bytes]], None]) -> None:
     file (a FIFO, a device such as ``/dev/null``, a socket) and a read-only file
     are refused, never replaced (see :func:`check_target`).
 
+    Parameters
+    ----------
+    path : str
+        The file to write.
+    write : callable
+        Writes the data to the binary file object it is given. An OSError it
+        raises (disk full, file too large) becomes the StorageFileError below.
+    what : str, default 'a vecslice model'
+        What is written, for messages: ``cannot save <what> to '<path>': ...``.
+
     Raises
     ------
     StorageFileError
         If the file cannot be written, or ``path`` is not a regular file or is
-        read-only; the message names ``path``.
+        read-only; the message names ``path`` and ``what``.
     """
+    where = f"cannot save {what} to {path!r}"
     tmp = None
     try:
         with _sigterm_raises():
             try:
-                target = check_target(path)
+                target = check_target(path, where)
                 try:
                     mode: int | None = os.stat(target).st_mode & 0o777
                 except FileNotFoundError:
@@ -424,6 +442,4 @@ def write_atomic(path: str, write: Callable[[IO[bytes]], None]) -> None:
     except OSError as exc:
         if isinstance(exc, StorageFileError):
             raise
-        raise StorageFileError(
-            f"cannot save a vecslice model to {path!r}: {exc.strerror or exc}"
-        ) from exc
+        raise StorageFileError(f"{where}: {exc.strerror or exc}") from exc

@@ -317,12 +317,18 @@ def save_layer(model: Any, i: int, path: str | os.PathLike[str] | IO[bytes], *,
     MissingDependencyError
         If matplotlib is not installed.
     StorageFileError
-        If the file cannot be written.
+        If the file ``path`` cannot be written; the message names it. (Writing
+        to a file object raises what the object raises.)
     """
     from vecslice.errors import StorageFileError
 
     ax = layer(model, i, raw=raw)
-    target = path if hasattr(path, "write") else os.fspath(path)  # type: ignore[arg-type]
+    if hasattr(path, "write"):
+        # a file object: its owner knows what file it is (the command line's
+        # write_atomic names the output), so its OSError is passed on as is
+        ax.figure.savefig(path, dpi=dpi, facecolor="white", format=format)
+        return
+    target = os.fspath(path)  # type: ignore[arg-type]
     try:
         ax.figure.savefig(target, dpi=dpi, facecolor="white", format=format)
     except OSError as exc:

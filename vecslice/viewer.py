@@ -26,6 +26,8 @@ __all__ = ["varint_encode", "viewer_html", "write_viewer"]
 
 _LIMIT = 2**52  # varints are decoded into JavaScript doubles: stay exact
 _PLACEHOLDER = re.compile(r"\{\{(TITLE|META|DATA)\}\}")  # in viewer.html
+# JSON escapes of the characters that may change how HTML reads a <script> element
+_JSON_IN_HTML = str.maketrans({"<": "\\u003c", ">": "\\u003e", "&": "\\u0026"})
 
 
 def varint_encode(values: NDArray[np.int64]) -> bytes:
@@ -153,8 +155,10 @@ def viewer_html(model: Any, *, title: str = "vecslice") -> str:
     }
     data = base64.b64encode(zlib.compress(blob, 9)).decode("ascii")
     template = resources.files("vecslice").joinpath("viewer.html").read_text("utf-8")
-    # "</" cannot appear inside the JSON's <script> element
-    meta_text = json.dumps(meta, separators=(",", ":")).replace("</", "<\\/")
+    # no "<", ">" or "&" inside the JSON's <script> element: "</script" would end
+    # it, and "<!--<script" would keep the page's own "</script>" from ending it
+    # (HTML's "script data double escaped" state); the escapes are valid JSON
+    meta_text = json.dumps(meta, separators=(",", ":")).translate(_JSON_IN_HTML)
     values = {"TITLE": html.escape(title), "META": meta_text, "DATA": data}
     # one pass over the template: a title holding "{{META}}" stays text
     return _PLACEHOLDER.sub(lambda m: values[m.group(1)], template)
@@ -186,4 +190,5 @@ def write_viewer(
     from vecslice.npz import check_path, write_atomic
 
     data = viewer_html(model, title=title).encode("utf-8")
-    write_atomic(check_path(path), lambda fh: fh.write(data))
+    write_atomic(check_path(path), lambda fh: fh.write(data),
+                 what="a layer viewer page")

@@ -320,6 +320,7 @@ def test_max_layers_stops_the_adaptive_loop():
     assert "must be <= `max_layers` (371); got 372 layers" in msg
     assert "down to 10 µm thick on an object 5000 µm tall" in msg
     assert "SliceSettings(max_layers=472)" in msg  # enough for any schedule
+    assert info.value.layers_needed == 472  # for the command line's own hint
     assert len(vs.layer_heights(wall, s.replace(max_layers=472))[0]) == 372
     with pytest.raises(vs.SettingsError, match=r"`max_layers` \(5\); got 6 layers"):
         vs.slice_mesh(wall, s.replace(max_layers=5))

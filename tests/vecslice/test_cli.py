@@ -124,7 +124,8 @@ def test_adaptive_layers_in_mm(tmp_path):
 
 def test_max_layers(tmp_path):
     p = run_cli(mesh("plate_holes.STL"), "--max-layers", "50", cwd=tmp_path)
-    _only_error_line(p, "max_layers")
+    _only_error_line(p, "more layers than --max-layers 50 allows")
+    assert "raise the limit: --max-layers 125 or more" in p.stderr
 
 
 def test_repair_is_reported_and_metres_get_a_hint(tmp_path):
@@ -262,7 +263,8 @@ def _only_error_line(p, fragment):
     (["--layer-height", "nan"], "--layer-height must be a finite length in mm"),
     (["--max-deviation", "1e12"], "--max-deviation 1e+12 mm is out of range"),
     (["--max-layers", "0"], "bad value for --max-layers: 0: `max_layers`"),
-    (["--adaptive-variation-step", "0"], "bad value for --adaptive-variation-step"),
+    (["--adaptive-layers", "--adaptive-variation-step", "0"],
+     "bad value for --adaptive-variation-step"),
     (["--scale", "2"], "--scale only applies to a model file"),
     (["preview", "missing.npz", "--layer", "0", "-o", "x.svg"], "does not exist"),
     (["view", "missing.npz"], "does not exist"),
@@ -276,7 +278,8 @@ def test_input_errors(tmp_path, args, fragment):
 
 def test_bad_scale_for_a_file(tmp_path):
     p = run_cli(mesh("plate_holes.STL"), "--scale", "-1", cwd=tmp_path)
-    _only_error_line(p, "`scale`")
+    _only_error_line(p, "--scale must be a positive finite number (file units to "
+                     "mm); got -1")
 
 
 def test_garbage_mesh_file(tmp_path):

@@ -1,4 +1,5 @@
 import io
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -12,6 +13,10 @@ from vecslice._cli_support import (
     CompileNotice,
     check_output,
     load_info_lines,
+    mm_to_microns,
+    mm_value,
+    say,
+    shown,
     size_hint,
 )
 from vecslice._kernels import _jit
@@ -123,3 +128,21 @@ def test_check_output_refuses_the_input_and_special_files(tmp_path):
     src.chmod(0o444)
     with pytest.raises(vs.StorageFileError, match=r"it is read-only \(mode 0444\)"):
         check_output(src)
+
+
+def test_paths_are_shown_the_same_way_and_printing_never_raises():
+    """Audit s24 D4: a name that is not UTF-8, printed to a strict stream."""
+    assert shown(os.fsdecode(b"caf\xe9.stl")) == "caf\\xe9.stl"
+    assert shown(Path("dir") / "café.stl") == "dir/café.stl"
+    stream = io.TextIOWrapper(io.BytesIO(), encoding="ascii", errors="strict")
+    say("café 30 µm", stream)
+    say(os.fsdecode(b"caf\xe9"), stream, flush=True)
+    assert stream.buffer.getvalue() == b"caf\\xe9 30 \\xb5m\ncaf\\udce9\n"
+
+
+def test_every_half_micron_rounds_away_from_zero():
+    """Audit s24 D9: 92 of these 10,000 inputs rounded down (through a float)."""
+    for n in range(10_000):
+        text = f"{n // 1000}.{n % 1000:03d}5"  # n + 0.5 µm
+        assert mm_to_microns(mm_value(text), "--x") == n + 1, text
+        assert mm_to_microns(mm_value("-" + text), "--x") == -(n + 1), text

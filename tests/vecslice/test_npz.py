@@ -5,6 +5,7 @@ Every hostile file is generated here, never committed.
 
 from __future__ import annotations
 
+import errno
 import io
 import os
 import re
@@ -495,3 +496,52 @@ def test_save_refuses_a_read_only_file(tmp_path, umask):
     square_model().save(path)
     assert load_sliced(path).n_parts == 1
     assert stat.S_IMODE(os.stat(path).st_mode) == 0o644
+
+
+def test_write_atomic_names_what_it_writes(tmp_path):
+    """Audit s24 D6: a failed PNG, SVG or page write said "cannot save a vecslice
+    model"."""
+    from vecslice.npz import write_atomic
+
+    def full(fh):
+        fh.write(b"part")
+        raise OSError(errno.EFBIG, os.strerror(errno.EFBIG))
+
+    path = str(tmp_path / "layer.png")
+    with pytest.raises(StorageFileError, match=re.escape(
+            f"cannot save a PNG picture to {path!r}: File too large")):
+        write_atomic(path, full, what="a PNG picture")
+    with pytest.raises(StorageFileError, match=re.escape(
+            f"cannot save a vecslice model to {path!r}: File too large")):
+        write_atomic(path, full)  # the default
+    os.mkfifo(tmp_path / "fifo.svg")
+    with pytest.raises(StorageFileError, match=r"cannot save an SVG picture to "
+                       r".*fifo\.svg': it is a FIFO"):
+        write_atomic(str(tmp_path / "fifo.svg"), full, what="an SVG picture")
+    assert sorted(os.listdir(tmp_path)) == ["fifo.svg"]
+
+
+def test_missing_directory_is_named_before_writing(tmp_path):
+    """Audit s24 D8: a dangling symbolic link into a missing directory was found
+    only when the write failed, and the message did not name the directory."""
+    from vecslice.npz import check_target
+
+    link = tmp_path / "out.npz"
+    link.symlink_to(tmp_path / "gone" / "deeper" / "m.npz")
+    folder = str(tmp_path / "gone" / "deeper")
+    with pytest.raises(StorageFileError, match=re.escape(
+            f"-o 'out.npz': it is a symbolic link to '{folder}/m.npz', whose "
+            f"directory '{folder}' does not exist")):
+        check_target(str(link), where="-o 'out.npz'")
+    with pytest.raises(StorageFileError, match=re.escape(
+            f"cannot save a vecslice model to '{link}': it is a symbolic link to "
+            f"'{folder}/m.npz', whose directory '{folder}' does not exist")):
+        square_model().save(link)
+    missing = str(tmp_path / "nope" / "m.npz")
+    with pytest.raises(StorageFileError, match=re.escape(
+            f"cannot write '{missing}': the directory '{tmp_path}/nope' does not "
+            "exist")):
+        check_target(missing)
+    assert os.listdir(tmp_path) == ["out.npz"]
+    (tmp_path / "gone" / "deeper").mkdir(parents=True)  # then the link is fine
+    assert check_target(str(link)) == f"{folder}/m.npz"

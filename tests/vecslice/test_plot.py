@@ -1,3 +1,6 @@
+import errno
+import io
+import os
 import sys
 
 import numpy as np
@@ -106,6 +109,21 @@ def test_save_layer_png_shows_the_hole(demo, tmp_path):
 def test_save_layer_error_names_the_file(demo, tmp_path):
     with pytest.raises(vs.StorageFileError, match=r"cannot write .*nowhere"):
         plot.save_layer(demo, 0, tmp_path / "nowhere" / "x.png")
+
+
+class _FullDisk(io.BytesIO):
+    def write(self, data):
+        raise OSError(errno.EFBIG, os.strerror(errno.EFBIG))
+
+
+def test_save_layer_to_a_file_object_passes_its_error_on(demo):
+    """Audit s24 D6: the message named ``<_io.BufferedWriter name=3>`` (the
+    command line's temporary file) instead of the picture; the writer of the
+    file object words it (see test_cli_args)."""
+    with pytest.raises(OSError, match="File too large") as info:
+        plot.save_layer(demo, 0, _FullDisk(), format="png")
+    assert not isinstance(info.value, vs.StorageFileError)
+    assert "BytesIO" not in str(info.value) and "name=" not in str(info.value)
 
 
 def test_draws_into_given_axes(demo):

@@ -61,8 +61,10 @@ def test_a_1_km_mesh_is_refused_before_any_allocation():
 
 def test_raising_the_limit_allows_more_layers():
     mesh = tall_tetra(6_000)  # 58 layers at 0.1 mm after a 0.3 mm first layer
-    with pytest.raises(vs.SettingsError, match="got 58 layers"):
+    with pytest.raises(vs.SettingsError, match="got 58 layers") as info:
         vs.slice_mesh(mesh, vs.SliceSettings(max_layers=57))
+    # the limit it suggests, for the command line's own hint
+    assert info.value.layers_needed == 58
     model = vs.slice_mesh(mesh, vs.SliceSettings(max_layers=58))
     assert model.n_layers == 58
 

@@ -125,6 +125,27 @@ def test_placeholders_in_the_title_stay_text(title):
     assert meta["title"] == title and data["coords"].size == 8
 
 
+@pytest.mark.parametrize("title", [
+    "<!--<script>.npz", "<!--<script", "a<!--<SCRIPT x>b-->c.stl", "<script>&amp;",
+    "x]]><!--.npz",
+])  # fmt: skip
+def test_no_markup_in_the_embedded_json(title):
+    """Audit s24 D3: a title holding ``<!--<script`` put the HTML tokenizer in its
+    "script data double escaped" state: the meta <script> swallowed the rest of
+    the page, whose data and program were gone (yet it still had 3 ``</script>``)."""
+    model = vs.SlicedModel([100], [200], [200], [0, 1], [0, 1], [0, 4],
+                           [[0, 0], [10, 0], [10, 10], [0, 10]])
+    page = viewer_html(model, title=title)
+    assert page.lower().count("<script") == 3 and page.count("</script>") == 3
+    text = re.search(r'id="vecslice-meta" type="application/json">(.*?)</script>',
+                     page, re.S).group(1)
+    assert not set("<>&") & set(text)  # nothing for the tokenizer to act on
+    meta = json.loads(text)  # what the page's JSON.parse reads
+    assert meta["title"] == title and meta["n_layers"] == 1
+    _, data = embedded(page)
+    assert data["coords"].size == 8
+
+
 def test_bad_arguments(tmp_path):
     model = vs.slice_mesh(vs.demo_mesh())
     with pytest.raises(vs.InputTypeError, match=r"`model` must be a vecslice\.Sliced"):
