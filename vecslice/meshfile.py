@@ -281,7 +281,7 @@ def _floats(
 _OBJ_V = re.compile(rb"^[ \t]*v[ \t]+([^\s#]+[ \t]+[^\s#]+[ \t]+[^\s#]+)", re.M)
 _OBJ_V_LINE = re.compile(rb"^[ \t]*v[ \t]", re.M)
 _OBJ_F = re.compile(rb"^[ \t]*f[ \t]+([^\r\n#]*)", re.M)
-_OBJ_SLASH = re.compile(rb"/[^ \t\n]*")
+_OBJ_SLASH = re.compile(rb"/\S*")  # to the next C whitespace, as tokens split
 _INT = re.compile(rb"[+-]?\d{1,18}")
 
 

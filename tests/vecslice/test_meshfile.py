@@ -478,3 +478,13 @@ def test_utf16_text_is_named(tmp_path, ext, text, codec):
     refused(write(tmp_path, f"t.{ext}", text.encode(codec)),
             r"t\." + ext + r"' .*\(it looks like UTF-16 text; save it as ASCII or "
             r"UTF-8\)")
+
+
+@pytest.mark.parametrize("sep", ["\v", "\f"])
+def test_obj_slash_token_ends_at_any_whitespace(tmp_path, sep):
+    # audit s24 D4: '2/1\v3/1' lost corner 3 (the /vt suffix ran to the next space)
+    m = vs.load_mesh(write(tmp_path, "w.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+                           f"vt 0 0\nf 1/1 2/1{sep}3/1 4/1\n"), repair=False)
+    assert m.n_faces == 2
+    assert sorted(m.vertices[m.faces].reshape(-1, 3)[:, :2].tolist()) == sorted(
+        [[0, 0], [1000, 0], [1000, 1000], [0, 0], [1000, 1000], [0, 1000]])
