@@ -306,6 +306,13 @@ def _obj_face(data: bytes, k: int) -> str:
     return f"face {k + 1} (line {_line_of(data, m.start())})"
 
 
+def _obj_defined_before(data: bytes) -> NDArray[np.int64]:
+    """How many vertices an OBJ file defines before each of its face lines."""
+    v_at = np.array([m.start() for m in _OBJ_V_LINE.finditer(data)], np.int64)
+    f_at = np.array([m.start() for m in _OBJ_F.finditer(data)], np.int64)
+    return np.searchsorted(v_at, f_at).astype(np.int64)
+
+
 def _read_obj(path: Path, size: int) -> Arrays:
     """Wavefront OBJ: ``v`` and ``f`` lines; polygons become triangle fans.
 
@@ -360,22 +367,23 @@ def _read_obj(path: Path, size: int) -> Arrays:
     res = idx - 1
     neg = idx < 0
     if neg.any():  # relative: vertices defined before the face line
-        v_at = np.array([m.start() for m in _OBJ_V_LINE.finditer(data)], np.int64)
-        f_at = np.array([m.start() for m in _OBJ_F.finditer(data)], np.int64)
-        before = np.searchsorted(v_at, f_at)
-        res[neg] = before[face_of[neg]] + idx[neg]
+        res[neg] = _obj_defined_before(data)[face_of[neg]] + idx[neg]
     bad = np.flatnonzero((idx == 0) | (res < 0) | (res >= n_v))
     if bad.size:
         k = int(bad[0])
         i, face = int(idx[k]), int(face_of[k])
+        text = str(i)
+        if i == np.iinfo(np.int64).max:  # numpy's parse of anything beyond int64
+            text = body.split()[k].decode("latin-1")
         if i == 0:
             why = "OBJ vertex indices start at 1 (negative ones count back)"
-        elif i < 0:
-            why = f"only {before[face]} vertices are defined before it"
+        elif text.startswith("-"):
+            why = (f"only {_obj_defined_before(data)[face]} vertices are defined "
+                   "before it")
         else:
             why = f"the file has {n_v} vertices"
         raise MeshFileError(f"'{path}' is corrupt: {_obj_face(data, face)} refers "
-                            f"to vertex {i}; {why}")
+                            f"to vertex {text}; {why}")
     # fan: face with corners c0..c(k-1) -> (c0, cj, cj+1) for j = 1 .. k-2
     first = np.cumsum(counts) - counts
     n_tri = counts - 2

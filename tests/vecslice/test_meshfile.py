@@ -488,3 +488,14 @@ def test_obj_slash_token_ends_at_any_whitespace(tmp_path, sep):
     assert m.n_faces == 2
     assert sorted(m.vertices[m.faces].reshape(-1, 3)[:, :2].tolist()) == sorted(
         [[0, 0], [1000, 0], [1000, 1000], [0, 0], [1000, 1000], [0, 1000]])
+
+
+@pytest.mark.parametrize(("index", "why"), [
+    ("-99999999999999999999999", "only 3 vertices are defined before it"),
+    ("18446744073709551619", "the file has 3 vertices"),
+    ("9223372036854775807", "the file has 3 vertices"),
+])
+def test_obj_index_beyond_int64_is_quoted_as_written(tmp_path, index, why):
+    # audit s24 D10: reported as 9223372036854775807 (numpy saturates)
+    refused(write(tmp_path, "s.obj", f"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 {index}\n"),
+            rf"s\.obj' is corrupt: face 1 \(line 4\) refers to vertex {index}; {why}")
