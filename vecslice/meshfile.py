@@ -234,34 +234,59 @@ def _read_stl(path: Path, size: int) -> Arrays:
 def _read_stl_ascii(path: Path, data: bytes) -> Arrays:
     # keywords in any case (some CAD writes SOLID ... ENDSOLID); skip the name
     body = data[data.find(b"\n") + 1:].lower() if b"\n" in data else b""
-    tokens = _STL_VERTEX.findall(body)
-    n_loops = len(_STL_LOOP.findall(body))
-    if not tokens or body.rfind(b"endsolid") < body.rfind(b"vertex"):
+    # text between vertices, x, y, z, text between vertices, ..., text after them
+    parts = _STL_VERTEX.split(body)
+    gaps = parts[0::4]
+    del parts[0::4]  # the numbers are left
+    if not parts or body.rfind(b"endsolid") < body.rfind(b"vertex"):
         raise MeshFileError(f"'{path}' holds no triangles{_stl_hint(data)}")
-    if len(tokens) != 3 * n_loops:
+    per_facet = _stl_facet_sizes(gaps)
+    n_loops = per_facet.shape[0] - 1
+    if len(gaps) - 1 != 3 * n_loops:
         raise MeshFileError(
             f"'{path}' is corrupt: ASCII STL facets must have 3 vertices each; got "
-            f"{len(tokens)} vertices in {n_loops} facets"
+            f"{len(gaps) - 1} vertices in {n_loops} facets"
         )
-    v = _floats(path, tokens, "vertex")
+    bad = np.flatnonzero(per_facet != np.r_[0, np.full(n_loops, 3)])
+    if bad.size:  # as many vertices as 3 per facet, grouped otherwise
+        k = int(bad[0])
+        at = next(islice(_STL_LOOP.finditer(body), max(k - 1, 0), None)).start()
+        raise MeshFileError(
+            f"'{path}' is corrupt: ASCII STL facets must have 3 vertices each; "
+            + (f"facet {k} (line {_line_of(body, at) + 1}) has {per_facet[k]}" if k
+               else f"{per_facet[0]} vertices come before the first facet (line "
+               f"{_line_of(body, at) + 1})"))
+    v = _floats(path, parts, "vertex")
     return v, np.arange(v.shape[0], dtype=np.int64).reshape(-1, 3)
 
 
-def _floats(
-    path: Path, rows: list[tuple[bytes, ...]], what: str
-) -> NDArray[np.float64]:
-    """(N, 3) float64 from tuples of byte strings; names the first bad number.
+def _stl_facet_sizes(gaps: list[bytes]) -> NDArray[np.int64]:
+    """Vertices before the first ``outer loop``, then in each loop: shape (loops + 1,).
+
+    ``gaps`` is the text between an ASCII STL's vertices (``gaps[i]`` precedes
+    vertex ``i``).
+    """
+    text = b"\n".join(gaps)  # no keyword runs across a line end
+    ends = np.cumsum(np.fromiter(map(len, gaps), np.int64, len(gaps)) + 1)
+    at = np.fromiter((m.start() for m in _STL_LOOP.finditer(text)), np.int64)
+    loops_before = np.cumsum(np.bincount(np.searchsorted(ends, at, side="right"),
+                                         minlength=len(gaps)))
+    return np.bincount(loops_before[:-1], minlength=at.shape[0] + 1)
+
+
+def _floats(path: Path, tokens: list[bytes], what: str) -> NDArray[np.float64]:
+    """(N, 3) float64 from 3N byte strings; names the first bad number.
 
     Python's float syntax allows ``1_0`` (10); a mesh file's numbers do not.
     """
     try:
-        a = np.array(rows, dtype=np.bytes_)
+        a = np.array(tokens, dtype=np.bytes_)
         if b"_" in a.tobytes():
             raise ValueError("an underscore")
         return a.reshape(-1, 3).astype(np.float64)
     except ValueError:
-        for k, row in enumerate(rows):
-            for tok in row:
+        for k in range(len(tokens) // 3):
+            for tok in tokens[3 * k : 3 * k + 3]:
                 try:
                     if b"_" in tok:
                         raise ValueError(tok)
@@ -336,7 +361,7 @@ def _read_obj(path: Path, size: int) -> Arrays:
     n_v = len(rows)
     v = _numbers(b" ".join(rows), np.float64, 3 * n_v)
     if v is None:  # slow path: names the bad number
-        v = _floats(path, [tuple(r.split()) for r in rows], "vertex")
+        v = _floats(path, [t for r in rows for t in r.split()], "vertex")
     v = v.reshape(-1, 3)
     bodies = _OBJ_F.findall(data)
     if not bodies:
