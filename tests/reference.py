@@ -25,7 +25,7 @@ def ring_area2(coords, ring_offsets) -> list[int]:
         for i in range(len(ring)):
             (x0, y0), (x1, y1) = ring[i], ring[(i + 1) % len(ring)]
             acc += x0 * y1 - x1 * y0
-        out.append(acc)
+        out.append(acc if -(2**63) < acc < 2**63 else -(2**63))  # beyond int64
     return out
 
 

@@ -145,9 +145,11 @@ class SlicedModel(PartsLayout):
     InputValueError
         If a ``slice_z`` or ``print_z`` value reaches 2**30 µm in magnitude, a
         ``thickness`` is not in 1 .. 2**30 - 1 µm, ``print_z`` does not
-        strictly increase (layers are stacked: no two share a height), or an
-        ``open_chains`` or ``stitched_gaps`` count is negative or reaches 2**31.
-        The message names the field, the layer and the value.
+        strictly increase (layers are stacked: no two share a height), an
+        ``open_chains`` or ``stitched_gaps`` count is negative or reaches 2**31,
+        or a ring's twice-area does not fit int64 (a ring that winds around more
+        than once near the coordinate limit). The message names the field or
+        ring, the layer and the value.
 
     Examples
     --------

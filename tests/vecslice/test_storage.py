@@ -482,3 +482,24 @@ def test_open_coords_errors_name_open_coords(tmp_path, open_coords, fragment, er
         with pytest.raises(StorageFileError, match="holds an invalid vecslice model: "
                            + fragment):
             load_sliced(path)
+
+
+@pytest.mark.parametrize("cw", [True, False], ids=["clockwise", "counter-clockwise"])
+def test_outline_wound_twice_near_the_limit_is_refused(tmp_path, cw):
+    # audit s24 D6: the twice-area of a clockwise square wound twice wrapped to
+    # +1.7e10 in int64, so the ring was accepted as an outline
+    x = 2**30 - 1
+    twice = rect(-x, -x, x, x, cw=cw) * 2
+    fragment = (r"twice the signed area of ring 0 \(the outline of part 0, layer 0\) "
+                r"must fit int64 \(\|value\| < 2\*\*63\); got "
+                + ("-" if cw else "") + "18446744039349813264 µm²")
+    with pytest.raises(InputValueError, match=fragment):
+        SlicedModel([1], [2], [2], [0, 1], [0, 1], [0, 8], twice)
+    with pytest.raises(InputValueError, match=fragment):
+        LayerParts(twice, [0, 8], [0, 1], [0, 1])
+    good = SlicedModel([1], [2], [2], [0, 1], [0, 1], [0, 8], rect(0, 0, 10, 10) * 2)
+    path = _npz(tmp_path / "w.npz", **(_good(good) | {
+        "coords": np.asarray(twice, np.int64)}))
+    with pytest.raises(StorageFileError,
+                       match="holds an invalid vecslice model: " + fragment):
+        load_sliced(path)
