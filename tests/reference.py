@@ -115,3 +115,26 @@ def successors(seg_from, seg_to, n_crossings):
             nxt[s_in] = s_out
             has_prev[s_out] = True
     return nxt, has_prev
+
+
+def record_starts(data: bytes, start: int, n_records: int, props, big_endian: bool):
+    """Where each PLY record starts; see vecslice._kernels.ply.record_starts."""
+    starts = [start]
+    pos = start
+    for r in range(n_records):
+        for width, size, signed, least in props:
+            if width == 0:
+                pos += size
+                continue
+            if pos + width > len(data):
+                return starts, r
+            count = int.from_bytes(data[pos : pos + width],
+                                   "big" if big_endian else "little",
+                                   signed=bool(signed))
+            if count < least:
+                return starts, r
+            pos += width + count * size
+        if pos > len(data):
+            return starts, r
+        starts.append(pos)
+    return starts, n_records

@@ -3,8 +3,9 @@
 :func:`read_mesh_file` checks the path, dispatches on the suffix and turns every
 failure into a :class:`~vecslice.errors.MeshFileError` that names the file.
 STL and OBJ are parsed here (bytes and regular expressions, so no text encoding
-is guessed), 3MF by :mod:`vecslice.threemf`, PLY and OFF by trimesh from the
-file's bytes (no side files such as textures are opened). Counts a file
+is guessed), 3MF by :mod:`vecslice.threemf`, binary PLY by :mod:`vecslice.plyoff`,
+ASCII PLY and OFF by trimesh from the file's bytes once :mod:`vecslice.plyoff`
+checked them (no side files such as textures are opened). Counts a file
 announces are checked against its size and :data:`MAX_TRIANGLES` before memory is
 spent on them. :func:`trimesh_arrays` takes the arrays out of a
 ``trimesh.Trimesh`` or ``trimesh.Scene``. trimesh is imported only when it is
@@ -33,7 +34,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice.errors import InputValueError, MeshFileError, VecsliceError
-from vecslice.plyoff import _off_header, _ply_header
+from vecslice.plyoff import (
+    _off_header,
+    _ply_header,
+    _ply_parse,
+    fan_triangles,
+    read_ply_binary,
+)
 
 if TYPE_CHECKING:
     import trimesh
@@ -409,31 +416,32 @@ def _read_obj(path: Path, size: int) -> Arrays:
             why = f"the file has {n_v} vertices"
         raise MeshFileError(f"'{path}' is corrupt: {_obj_face(data, face)} refers "
                             f"to vertex {text}; {why}")
-    # fan: face with corners c0..c(k-1) -> (c0, cj, cj+1) for j = 1 .. k-2
-    first = np.cumsum(counts) - counts
-    n_tri = counts - 2
-    tri_face = np.repeat(np.arange(len(bodies)), n_tri)
-    j = np.arange(tri_face.shape[0]) - np.repeat(np.cumsum(n_tri) - n_tri, n_tri)
-    base = first[tri_face]
-    f = np.stack([res[base], res[base + j + 1], res[base + j + 2]], axis=1)
-    return v, f
+    return v, fan_triangles(counts, res)
 
 
-def _read_with_trimesh(ext: str, check: Callable[[Path, bytes], bytes]) -> Callable[
-        [Path, int], Arrays]:
-    def read(path: Path, size: int) -> Arrays:
-        data = check(path, path.read_bytes())
-        import trimesh
+def _trimesh_load(ext: str, data: bytes) -> Arrays:
+    import trimesh
 
-        # from bytes: trimesh opens no side files (textures, materials)
-        loaded = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
-        arrays = trimesh_arrays(loaded)
-        if arrays is None:  # a point cloud or a path
-            return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
-        v, f, _ = arrays
-        return v, np.asarray(f, dtype=np.int64).reshape(-1, 3)
+    # from bytes: trimesh opens no side files (textures, materials)
+    loaded = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
+    arrays = trimesh_arrays(loaded)
+    if arrays is None:  # a point cloud or a path
+        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
+    v, f, _ = arrays
+    return v, np.asarray(f, dtype=np.int64).reshape(-1, 3)
 
-    return read
+
+def _read_off(path: Path, size: int) -> Arrays:
+    return _trimesh_load("off", _off_header(path, path.read_bytes()))
+
+
+def _read_ply(path: Path, size: int) -> Arrays:
+    """PLY: binary bodies are read here, ASCII ones by trimesh once checked."""
+    data = path.read_bytes()
+    header = _ply_parse(path, data)
+    if header.binary:
+        return read_ply_binary(path, data, header)
+    return _trimesh_load("ply", _ply_header(path, data, header))
 
 
 def _read_3mf(path: Path, size: int) -> Arrays:
@@ -445,8 +453,8 @@ def _read_3mf(path: Path, size: int) -> Arrays:
 _READERS: dict[str, Callable[[Path, int], Arrays]] = {
     "stl": _read_stl,
     "obj": _read_obj,
-    "ply": _read_with_trimesh("ply", _ply_header),
-    "off": _read_with_trimesh("off", _off_header),
+    "ply": _read_ply,
+    "off": _read_off,
     "3mf": _read_3mf,
 }
 
