@@ -199,3 +199,17 @@ def test_binary_bunny_loads_as_its_ascii_file(meshes_dir, tmp_path, order):
                                           ("face", fprops, frecs)], order))
         vb, fb = read_mesh_file(p)
         assert np.array_equal(vb, v32.astype(np.float64)) and np.array_equal(fb, f)
+
+
+@pytest.mark.parametrize("order", ["a", "<"])
+def test_face_texture_coordinates_are_not_vertex_indices(tmp_path, order):
+    # MeshLab writes a float 'texcoord' list beside the corners: it was refused
+    # as if it held vertex indices
+    tris = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
+    face = ("face", [("vertex_indices", ("uchar", "int")),
+                     ("texcoord", ("uchar", "float"))],
+            [(t, [0.0, 0.5, 1.0, 0.5, 0.25, 0.75]) for t in tris])
+    p = write(tmp_path, "t.ply", ply([("vertex", XYZ, [*CUBE_V[:3], (0, 0, 10)]),
+                                      face], order))
+    m = vs.load_mesh(p)
+    assert m.n_faces == 4 and m.is_watertight
