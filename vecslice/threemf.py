@@ -557,11 +557,13 @@ def read_3mf(path: Path, size: int) -> tuple[NDArray[np.float64], NDArray[np.int
         for info in zf.infolist():
             key = _norm(info.filename)
             if key in members:  # OPC: names compare case-insensitively
+                first = members[key].filename
                 raise MeshFileError(
                     f"'{path}' is not a valid 3MF package: it holds the part "
-                    f"'{members[key].filename}' twice (as '{info.filename}'); part "
-                    "names must differ in more than case, so which one a reader "
-                    "takes would be arbitrary")
+                    f"'{first}' twice"
+                    + (f" (as '{info.filename}')" if info.filename != first else "")
+                    + "; part names must differ in more than case, so which one a "
+                    "reader takes would be arbitrary")
             members[key] = info
         pkg = _Package(path, zf, members, budget=MAX_MODEL_BYTES)
         root = _model_part(pkg)
