@@ -11,6 +11,7 @@ I64_1D = types.Array(types.int64, 1, "C", readonly=True)
 I64_2D = types.Array(types.int64, 2, "C", readonly=True)
 F64_1D = types.Array(types.float64, 1, "C", readonly=True)
 B1_1D = types.Array(types.boolean, 1, "C", readonly=True)
+U8_1D = types.Array(types.uint8, 1, "C", readonly=True)  # bytes of a file
 
 # outputs: allocated inside the kernel
 I64_1D_OUT = types.int64[::1]

@@ -6,26 +6,43 @@ from numba import types
 from ._jit import kernel
 from ._types import B1_1D, B1_1D_OUT, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 
+AREA2_BEYOND_INT64 = -(2**63)
+""":func:`ring_area2` of a ring whose twice-area is not in (-2**63, 2**63)."""
+
 
 @kernel(I64_1D_OUT(I64_2D, I64_1D))
 def ring_area2(coords, ring_offsets):
     """Twice the signed area of each ring (exact; CCW > 0).
 
+    Each fan term fits int64 (|coords| < 2**30), but their sum over a ring that
+    winds around more than once near the coordinate limit may not: the sum is
+    kept exactly in two halves (the terms' high and low 32 bits), and a ring
+    whose twice-area is not in (-2**63, 2**63) gives ``AREA2_BEYOND_INT64``
+    (-2**63) instead of a wrapped value. Simple rings always fit.
+
     Preconditions (the caller checks them): |coords| < 2**30; ring_offsets starts at
-    0, never decreases and ends at len(coords).
+    0, never decreases and ends at len(coords); rings have < 2**31 vertices.
     """
     n_rings = ring_offsets.shape[0] - 1
     out = np.empty(n_rings, dtype=np.int64)
     for r in range(n_rings):
         start, stop = ring_offsets[r], ring_offsets[r + 1]
-        acc = 0
+        hi = 0  # sum of the terms' t >> 32: |each| <= 2**31
+        lo = 0  # sum of their t & (2**32 - 1): each < 2**32
         if stop - start >= 3:
             x0, y0 = coords[start, 0], coords[start, 1]
             for i in range(start + 1, stop - 1):
                 ax, ay = coords[i, 0] - x0, coords[i, 1] - y0
                 bx, by = coords[i + 1, 0] - x0, coords[i + 1, 1] - y0
-                acc += ax * by - ay * bx
-        out[r] = acc
+                t = ax * by - ay * bx
+                hi += t >> 32
+                lo += t & 0xFFFFFFFF
+        hi += lo >> 32  # the exact sum is hi * 2**32 + lo, 0 <= lo < 2**32
+        lo &= 0xFFFFFFFF
+        if -(2**31) <= hi < 2**31 and (hi > -(2**31) or lo > 0):
+            out[r] = hi * 2**32 + lo
+        else:
+            out[r] = AREA2_BEYOND_INT64
     return out
 
 

@@ -25,7 +25,7 @@ def ring_area2(coords, ring_offsets) -> list[int]:
         for i in range(len(ring)):
             (x0, y0), (x1, y1) = ring[i], ring[(i + 1) % len(ring)]
             acc += x0 * y1 - x1 * y0
-        out.append(acc)
+        out.append(acc if -(2**63) < acc < 2**63 else -(2**63))  # beyond int64
     return out
 
 
@@ -115,3 +115,26 @@ def successors(seg_from, seg_to, n_crossings):
             nxt[s_in] = s_out
             has_prev[s_out] = True
     return nxt, has_prev
+
+
+def record_starts(data: bytes, start: int, n_records: int, props, big_endian: bool):
+    """Where each PLY record starts; see vecslice._kernels.ply.record_starts."""
+    starts = [start]
+    pos = start
+    for r in range(n_records):
+        for width, size, signed, least in props:
+            if width == 0:
+                pos += size
+                continue
+            if pos + width > len(data):
+                return starts, r
+            count = int.from_bytes(data[pos : pos + width],
+                                   "big" if big_endian else "little",
+                                   signed=bool(signed))
+            if count < least:
+                return starts, r
+            pos += width + count * size
+        if pos > len(data):
+            return starts, r
+        starts.append(pos)
+    return starts, n_records

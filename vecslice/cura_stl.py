@@ -121,11 +121,20 @@ def _to_float32(tokens: list[bytes]) -> NDArray[np.float32]:
     return f
 
 
-def _parse_ascii(data: bytes) -> NDArray[np.float32]:
+def _parse_ascii(path: Path, data: bytes) -> NDArray[np.float32]:
     """The ``vertex`` values of an ASCII STL, (N, 3) float32 in file order."""
     text = data.replace(b"\r", b"\n")
-    tokens = [t for m in _VERTEX.findall(text) for t in m]
-    return _to_float32(tokens).reshape(-1, 3)
+    rows = _VERTEX.findall(text)
+    _check_count(path, len(rows) // 3)
+    return _to_float32([t for m in rows for t in m]).reshape(-1, 3)
+
+
+def _check_count(path: Path, n: int) -> None:
+    """Refuse more than :data:`vecslice.meshfile.MAX_TRIANGLES` triangles."""
+    from vecslice import meshfile
+
+    if n > meshfile.MAX_TRIANGLES:
+        raise meshfile._too_many(path, n)
 
 
 def _parse_binary(path: Path, data: bytes) -> NDArray[np.float32]:
@@ -136,6 +145,7 @@ def _parse_binary(path: Path, data: bytes) -> NDArray[np.float32]:
             f"the file has {len(data)} bytes"
         )
     n = (len(data) - 84) // 50
+    _check_count(path, n)
     announced = int(np.frombuffer(data, dtype="<u4", count=1, offset=80)[0])
     if announced != n:
         warnings.warn(
@@ -155,7 +165,8 @@ def read_stl_corners(path: Path) -> NDArray[np.float32]:
     MeshFileError
         If the file is missing, a symbolic link loop, a directory, not a regular
         file (a pipe or a device such as /dev/zero, which would never end),
-        unreadable, or too short for its type.
+        unreadable, too short for its type, or holds more than
+        :data:`vecslice.meshfile.MAX_TRIANGLES` triangles.
     """
     from vecslice.meshfile import _check_path
 
@@ -171,7 +182,7 @@ def read_stl_corners(path: Path) -> NDArray[np.float32]:
             f"whitespace (got {len(body)})"
         )
     if body[:5].lower() == b"solid":
-        v = _parse_ascii(data)
+        v = _parse_ascii(path, data)
         n = v.shape[0] - v.shape[0] % 3
         if n:
             return v[:n]

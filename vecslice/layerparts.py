@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._kernels.rings import ring_area2
 from vecslice.errors import LayoutError
+from vecslice.paths import exact_area2
 from vecslice.ragged import RaggedContainer, adopt, check_index, nested_offsets
 
 __all__ = ["LayerParts", "PartsLayout", "check_part_rings"]
@@ -32,7 +32,8 @@ def check_part_rings(
 
     Every part has >= 1 ring, every ring >= 3 vertices, every outline (first ring
     of a part) a positive area (CCW) and every hole a negative area (CW). The
-    offsets are already valid.
+    offsets are already valid. A ring whose twice-area does not fit int64 (it
+    winds around more than once near the coordinate limit) is an InputValueError.
     """
     def where(r: int) -> str:
         q = int(np.searchsorted(part_offsets, r, side="right")) - 1
@@ -53,7 +54,7 @@ def check_part_rings(
         raise LayoutError(
             f"every ring must have >= 3 vertices; {where(r)} has {int(lens[r])}"
         )
-    a2 = ring_area2(coords, ring_offsets)
+    a2 = exact_area2(coords, ring_offsets, where)  # never wrapped: signs are true
     is_outline = np.zeros(a2.shape[0], dtype=bool)
     is_outline[part_offsets[:-1]] = True
     bad = np.flatnonzero(np.where(is_outline, a2 <= 0, a2 >= 0))
@@ -122,7 +123,7 @@ class PartsLayout(RaggedContainer):
 
     def layer_areas(self) -> NDArray[np.float64]:
         """Area of each layer in µm², holes subtracted, shape (L,), float64."""
-        a2 = ring_area2(self.coords, self.ring_offsets)
+        a2 = exact_area2(self.coords, self.ring_offsets)
         out = np.bincount(self.ring_layer(), weights=a2, minlength=self.n_layers)
         return out / 2.0
 

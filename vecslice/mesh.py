@@ -625,7 +625,7 @@ def load_mesh(
         (an ``OSError``) for a missing file, a symbolic link loop, a directory, an
         unsupported suffix, an empty, unreadable, truncated, corrupt or
         oversized file, one without triangles, or one whose faces all collapse
-        at ``scale``.
+        at ``scale`` or cancel in the repair (each against a reversed copy).
     InputTypeError
         If ``path_or_trimesh``, ``scale``, or ``repair`` has the wrong type.
     InputValueError
@@ -683,6 +683,8 @@ def load_mesh(
     info = LoadInfo(source.strip("'"), int(f.shape[0]), int(v.shape[0]))
     try:
         mesh = Mesh.from_arrays(um, f, load_info=info)
+        if repair:
+            mesh = mesh.repaired()
     except InputValueError as exc:
         hint = ""
         if "non-degenerate" in str(exc):
@@ -691,4 +693,4 @@ def load_mesh(
         if source.startswith("trimesh"):
             raise InputValueError(f"{exc}{hint}") from exc
         raise MeshFileError(f"{source}: {exc}{hint}") from exc
-    return mesh.repaired() if repair else mesh
+    return mesh

@@ -3,8 +3,9 @@
 :func:`read_mesh_file` checks the path, dispatches on the suffix and turns every
 failure into a :class:`~vecslice.errors.MeshFileError` that names the file.
 STL and OBJ are parsed here (bytes and regular expressions, so no text encoding
-is guessed), 3MF by :mod:`vecslice.threemf`, PLY and OFF by trimesh from the
-file's bytes (no side files such as textures are opened). Counts a file
+is guessed), 3MF by :mod:`vecslice.threemf`, binary PLY by :mod:`vecslice.plyoff`,
+ASCII PLY and OFF by trimesh from the file's bytes once :mod:`vecslice.plyoff`
+checked them (no side files such as textures are opened). Counts a file
 announces are checked against its size and :data:`MAX_TRIANGLES` before memory is
 spent on them. :func:`trimesh_arrays` takes the arrays out of a
 ``trimesh.Trimesh`` or ``trimesh.Scene``. trimesh is imported only when it is
@@ -33,7 +34,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice.errors import InputValueError, MeshFileError, VecsliceError
-from vecslice.plyoff import _off_header, _ply_header
+from vecslice.plyoff import (
+    _off_header,
+    _ply_header,
+    _ply_parse,
+    fan_triangles,
+    read_ply_binary,
+)
 
 if TYPE_CHECKING:
     import trimesh
@@ -234,34 +241,59 @@ def _read_stl(path: Path, size: int) -> Arrays:
 def _read_stl_ascii(path: Path, data: bytes) -> Arrays:
     # keywords in any case (some CAD writes SOLID ... ENDSOLID); skip the name
     body = data[data.find(b"\n") + 1:].lower() if b"\n" in data else b""
-    tokens = _STL_VERTEX.findall(body)
-    n_loops = len(_STL_LOOP.findall(body))
-    if not tokens or body.rfind(b"endsolid") < body.rfind(b"vertex"):
+    # text between vertices, x, y, z, text between vertices, ..., text after them
+    parts = _STL_VERTEX.split(body)
+    gaps = parts[0::4]
+    del parts[0::4]  # the numbers are left
+    if not parts or body.rfind(b"endsolid") < body.rfind(b"vertex"):
         raise MeshFileError(f"'{path}' holds no triangles{_stl_hint(data)}")
-    if len(tokens) != 3 * n_loops:
+    per_facet = _stl_facet_sizes(gaps)
+    n_loops = per_facet.shape[0] - 1
+    if len(gaps) - 1 != 3 * n_loops:
         raise MeshFileError(
             f"'{path}' is corrupt: ASCII STL facets must have 3 vertices each; got "
-            f"{len(tokens)} vertices in {n_loops} facets"
+            f"{len(gaps) - 1} vertices in {n_loops} facets"
         )
-    v = _floats(path, tokens, "vertex")
+    bad = np.flatnonzero(per_facet != np.r_[0, np.full(n_loops, 3)])
+    if bad.size:  # as many vertices as 3 per facet, grouped otherwise
+        k = int(bad[0])
+        at = next(islice(_STL_LOOP.finditer(body), max(k - 1, 0), None)).start()
+        raise MeshFileError(
+            f"'{path}' is corrupt: ASCII STL facets must have 3 vertices each; "
+            + (f"facet {k} (line {_line_of(body, at) + 1}) has {per_facet[k]}" if k
+               else f"{per_facet[0]} vertices come before the first facet (line "
+               f"{_line_of(body, at) + 1})"))
+    v = _floats(path, parts, "vertex")
     return v, np.arange(v.shape[0], dtype=np.int64).reshape(-1, 3)
 
 
-def _floats(
-    path: Path, rows: list[tuple[bytes, ...]], what: str
-) -> NDArray[np.float64]:
-    """(N, 3) float64 from tuples of byte strings; names the first bad number.
+def _stl_facet_sizes(gaps: list[bytes]) -> NDArray[np.int64]:
+    """Vertices before the first ``outer loop``, then in each loop: shape (loops + 1,).
+
+    ``gaps`` is the text between an ASCII STL's vertices (``gaps[i]`` precedes
+    vertex ``i``).
+    """
+    text = b"\n".join(gaps)  # no keyword runs across a line end
+    ends = np.cumsum(np.fromiter(map(len, gaps), np.int64, len(gaps)) + 1)
+    at = np.fromiter((m.start() for m in _STL_LOOP.finditer(text)), np.int64)
+    loops_before = np.cumsum(np.bincount(np.searchsorted(ends, at, side="right"),
+                                         minlength=len(gaps)))
+    return np.bincount(loops_before[:-1], minlength=at.shape[0] + 1)
+
+
+def _floats(path: Path, tokens: list[bytes], what: str) -> NDArray[np.float64]:
+    """(N, 3) float64 from 3N byte strings; names the first bad number.
 
     Python's float syntax allows ``1_0`` (10); a mesh file's numbers do not.
     """
     try:
-        a = np.array(rows, dtype=np.bytes_)
+        a = np.array(tokens, dtype=np.bytes_)
         if b"_" in a.tobytes():
             raise ValueError("an underscore")
         return a.reshape(-1, 3).astype(np.float64)
     except ValueError:
-        for k, row in enumerate(rows):
-            for tok in row:
+        for k in range(len(tokens) // 3):
+            for tok in tokens[3 * k : 3 * k + 3]:
                 try:
                     if b"_" in tok:
                         raise ValueError(tok)
@@ -281,7 +313,7 @@ def _floats(
 _OBJ_V = re.compile(rb"^[ \t]*v[ \t]+([^\s#]+[ \t]+[^\s#]+[ \t]+[^\s#]+)", re.M)
 _OBJ_V_LINE = re.compile(rb"^[ \t]*v[ \t]", re.M)
 _OBJ_F = re.compile(rb"^[ \t]*f[ \t]+([^\r\n#]*)", re.M)
-_OBJ_SLASH = re.compile(rb"/[^ \t\n]*")
+_OBJ_SLASH = re.compile(rb"/\S*")  # to the next C whitespace, as tokens split
 _INT = re.compile(rb"[+-]?\d{1,18}")
 
 
@@ -304,6 +336,13 @@ def _obj_face(data: bytes, k: int) -> str:
     """'face k+1 (line L)' for the k-th face line of an OBJ file."""
     m = next(islice(_OBJ_F.finditer(data), k, None))
     return f"face {k + 1} (line {_line_of(data, m.start())})"
+
+
+def _obj_defined_before(data: bytes) -> NDArray[np.int64]:
+    """How many vertices an OBJ file defines before each of its face lines."""
+    v_at = np.array([m.start() for m in _OBJ_V_LINE.finditer(data)], np.int64)
+    f_at = np.array([m.start() for m in _OBJ_F.finditer(data)], np.int64)
+    return np.searchsorted(v_at, f_at).astype(np.int64)
 
 
 def _read_obj(path: Path, size: int) -> Arrays:
@@ -329,7 +368,7 @@ def _read_obj(path: Path, size: int) -> Arrays:
     n_v = len(rows)
     v = _numbers(b" ".join(rows), np.float64, 3 * n_v)
     if v is None:  # slow path: names the bad number
-        v = _floats(path, [tuple(r.split()) for r in rows], "vertex")
+        v = _floats(path, [t for r in rows for t in r.split()], "vertex")
     v = v.reshape(-1, 3)
     bodies = _OBJ_F.findall(data)
     if not bodies:
@@ -360,47 +399,49 @@ def _read_obj(path: Path, size: int) -> Arrays:
     res = idx - 1
     neg = idx < 0
     if neg.any():  # relative: vertices defined before the face line
-        v_at = np.array([m.start() for m in _OBJ_V_LINE.finditer(data)], np.int64)
-        f_at = np.array([m.start() for m in _OBJ_F.finditer(data)], np.int64)
-        before = np.searchsorted(v_at, f_at)
-        res[neg] = before[face_of[neg]] + idx[neg]
+        res[neg] = _obj_defined_before(data)[face_of[neg]] + idx[neg]
     bad = np.flatnonzero((idx == 0) | (res < 0) | (res >= n_v))
     if bad.size:
         k = int(bad[0])
         i, face = int(idx[k]), int(face_of[k])
+        text = str(i)
+        if i == np.iinfo(np.int64).max:  # numpy's parse of anything beyond int64
+            text = body.split()[k].decode("latin-1")
         if i == 0:
             why = "OBJ vertex indices start at 1 (negative ones count back)"
-        elif i < 0:
-            why = f"only {before[face]} vertices are defined before it"
+        elif text.startswith("-"):
+            why = (f"only {_obj_defined_before(data)[face]} vertices are defined "
+                   "before it")
         else:
             why = f"the file has {n_v} vertices"
         raise MeshFileError(f"'{path}' is corrupt: {_obj_face(data, face)} refers "
-                            f"to vertex {i}; {why}")
-    # fan: face with corners c0..c(k-1) -> (c0, cj, cj+1) for j = 1 .. k-2
-    first = np.cumsum(counts) - counts
-    n_tri = counts - 2
-    tri_face = np.repeat(np.arange(len(bodies)), n_tri)
-    j = np.arange(tri_face.shape[0]) - np.repeat(np.cumsum(n_tri) - n_tri, n_tri)
-    base = first[tri_face]
-    f = np.stack([res[base], res[base + j + 1], res[base + j + 2]], axis=1)
-    return v, f
+                            f"to vertex {text}; {why}")
+    return v, fan_triangles(counts, res)
 
 
-def _read_with_trimesh(ext: str, check: Callable[[Path, bytes], bytes]) -> Callable[
-        [Path, int], Arrays]:
-    def read(path: Path, size: int) -> Arrays:
-        data = check(path, path.read_bytes())
-        import trimesh
+def _trimesh_load(ext: str, data: bytes) -> Arrays:
+    import trimesh
 
-        # from bytes: trimesh opens no side files (textures, materials)
-        loaded = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
-        arrays = trimesh_arrays(loaded)
-        if arrays is None:  # a point cloud or a path
-            return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
-        v, f, _ = arrays
-        return v, np.asarray(f, dtype=np.int64).reshape(-1, 3)
+    # from bytes: trimesh opens no side files (textures, materials)
+    loaded = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
+    arrays = trimesh_arrays(loaded)
+    if arrays is None:  # a point cloud or a path
+        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
+    v, f, _ = arrays
+    return v, np.asarray(f, dtype=np.int64).reshape(-1, 3)
 
-    return read
+
+def _read_off(path: Path, size: int) -> Arrays:
+    return _trimesh_load("off", _off_header(path, path.read_bytes()))
+
+
+def _read_ply(path: Path, size: int) -> Arrays:
+    """PLY: binary bodies are read here, ASCII ones by trimesh once checked."""
+    data = path.read_bytes()
+    header = _ply_parse(path, data)
+    if header.binary:
+        return read_ply_binary(path, data, header)
+    return _trimesh_load("ply", _ply_header(path, data, header))
 
 
 def _read_3mf(path: Path, size: int) -> Arrays:
@@ -412,8 +453,8 @@ def _read_3mf(path: Path, size: int) -> Arrays:
 _READERS: dict[str, Callable[[Path, int], Arrays]] = {
     "stl": _read_stl,
     "obj": _read_obj,
-    "ply": _read_with_trimesh("ply", _ply_header),
-    "off": _read_with_trimesh("off", _off_header),
+    "ply": _read_ply,
+    "off": _read_off,
     "3mf": _read_3mf,
 }
 

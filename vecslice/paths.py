@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._kernels.rings import ring_area2
+from vecslice._kernels.rings import AREA2_BEYOND_INT64, ring_area2
 from vecslice._validate import as_coords, check_int
 from vecslice.errors import InputTypeError, InputValueError, LayoutError
 from vecslice.ragged import (
@@ -20,7 +20,33 @@ from vecslice.ragged import (
     offsets_from_lengths,
 )
 
-__all__ = ["LayerPaths", "Paths"]
+__all__ = ["LayerPaths", "Paths", "exact_area2"]
+
+
+def exact_area2(
+    coords: NDArray[np.int64], ring_offsets: NDArray[np.int64],
+    where: Callable[[int], str] | None = None,
+) -> NDArray[np.int64]:
+    """Twice the signed area of each ring in µm², exact, or an InputValueError.
+
+    A ring's twice-area fits int64 unless the ring winds around more than once
+    near the coordinate limit; such a ring is refused (the message names it with
+    ``where(r)``, default ``"ring r"``, and gives the exact value) instead of
+    wrapping around, which could flip its orientation.
+    """
+    a2 = ring_area2(coords, ring_offsets)
+    beyond = np.flatnonzero(a2 == AREA2_BEYOND_INT64)
+    if beyond.size:
+        r = int(beyond[0])
+        d = coords[ring_offsets[r] : ring_offsets[r + 1]] - coords[ring_offsets[r]]
+        t = d[1:-1, 0] * d[2:, 1] - d[1:-1, 1] * d[2:, 0]  # each fits int64
+        exact = int((t >> 32).sum()) * 2**32 + int((t & 0xFFFFFFFF).sum())
+        raise InputValueError(
+            f"twice the signed area of {where(r) if where else f'ring {r}'} must "
+            f"fit int64 (|value| < 2**63); got {exact} µm² (a ring that winds "
+            "around more than once near the coordinate limit)"
+        )
+    return a2
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -127,8 +153,12 @@ class Paths(RaggedContainer):
         return np.diff(self.ring_offsets)
 
     def area2(self) -> NDArray[np.int64]:
-        """Twice the signed area of each ring in µm² (exact; CCW > 0)."""
-        return ring_area2(self.coords, self.ring_offsets)
+        """Twice the signed area of each ring in µm² (exact; CCW > 0).
+
+        Raises InputValueError for a ring whose value does not fit int64 (one
+        that winds around more than once near the coordinate limit).
+        """
+        return exact_area2(self.coords, self.ring_offsets)
 
     def __repr__(self) -> str:
         return f"Paths({len(self)} rings, {self.coords.shape[0]} vertices)"
@@ -243,8 +273,15 @@ class LayerPaths(RaggedContainer):
         return np.repeat(layers, self.rings_per_layer())
 
     def area2(self) -> NDArray[np.int64]:
-        """Twice the signed area of each ring in µm² (exact; CCW > 0)."""
-        return ring_area2(self.coords, self.ring_offsets)
+        """Twice the signed area of each ring in µm² (exact; CCW > 0).
+
+        Raises InputValueError for a ring whose value does not fit int64 (one
+        that winds around more than once near the coordinate limit).
+        """
+        return exact_area2(
+            self.coords, self.ring_offsets,
+            lambda r: f"ring {r} (layer "
+            f"{int(np.searchsorted(self.layer_offsets, r, side='right')) - 1})")
 
     def layer_area2(self) -> NDArray[np.int64]:
         """Twice the signed area summed over the rings of each layer, shape (L,).

@@ -1,16 +1,21 @@
-"""ASCII PLY and OFF files: their headers and bodies checked before trimesh parses them.
+"""PLY and OFF files: headers checked against the file, binary PLY read here.
 
 A header's counts are checked against the file's size, and an ASCII body row by
 row against them (rows, values per row, list lengths), so a truncated or lying
-file is refused instead of loading as part of a mesh. Used by
+file is refused instead of loading as part of a mesh; trimesh then parses ASCII
+PLY and OFF. A binary PLY body is walked record by record through its list
+counts and read here: trimesh reads every list with the length of the first
+one, which loads faces of mixed corner counts wrong or not at all. Used by
 :mod:`vecslice.meshfile`, whose limits and messages these checks share.
 """
 
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,6 +23,8 @@ from numpy.typing import NDArray
 from vecslice.errors import MeshFileError
 
 __all__: list[str] = []
+
+Arrays = tuple[NDArray[np.float64], NDArray[np.int64]]
 
 
 def _mf() -> ModuleType:
@@ -27,16 +34,17 @@ def _mf() -> ModuleType:
     return meshfile
 
 
-_PLY_SIZES = {
-    "char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2,
-    "int16": 2, "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4,
-    "float": 4, "float32": 4, "double": 8, "float64": 8,
+_PLY_TYPES = {
+    "char": "i1", "uchar": "u1", "int8": "i1", "uint8": "u1", "short": "i2",
+    "ushort": "u2", "int16": "i2", "uint16": "u2", "int": "i4", "uint": "u4",
+    "int32": "i4", "uint32": "u4", "float": "f4", "float32": "f4", "double": "f8",
+    "float64": "f8",
 }
+_PLY_SIZES = {name: int(code[1]) for name, code in _PLY_TYPES.items()}
+_PLY_INTS = {name for name, code in _PLY_TYPES.items() if code[0] in "iu"}
+_PLY_UNSIGNED = {name for name, code in _PLY_TYPES.items() if code[0] == "u"}
+_PLY_ORDER = {"binary_little_endian": "<", "binary_big_endian": ">"}
 _PLY_FACE_NAMES = ("vertex_indices", "vertex_index")
-
-
-_PLY_INTS = {"char", "uchar", "int8", "uint8", "short", "ushort", "int16", "uint16",
-             "int", "uint", "int32", "uint32"}
 
 
 def _rows(body: bytes) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -113,75 +121,317 @@ def _check_rows(path: Path, body: bytes, first_line: int, fmt: str,
         row0 += count
 
 
-def _ply_header(path: Path, data: bytes) -> bytes:
-    """Check a PLY header against the file's size; returns the bytes to parse.
+@dataclass
+class _Element:
+    """A PLY element: its name, record count and properties in record order."""
 
-    An ASCII body is checked row by row against the header (:func:`_check_rows`);
-    face vertex indices must have an integer type. A face element with one list
-    property under another name than ``vertex_indices``/``vertex_index`` gets
-    that name, so it loads.
-    """
+    name: str
+    count: int
+    # (name, count type or None for a scalar, value type)
+    props: list[tuple[str, str | None, str]] = field(default_factory=list)
+
+    def lists(self) -> list[str]:
+        return [name for name, count, _ in self.props if count is not None]
+
+
+@dataclass
+class _Header:
+    """A PLY header, checked against the file's size."""
+
+    end: int  # where the body starts
+    lines: int
+    fmt: str
+    elements: list[_Element]
+    face: _Element | None
+    corners: str | None  # the face's list of vertex indices
+
+    @property
+    def binary(self) -> bool:
+        return self.fmt in _PLY_ORDER
+
+
+def _ply_parse(path: Path, data: bytes) -> _Header:
+    """Parse a PLY header and check its counts against limits and the file's size."""
     end = re.search(rb"end_header[ \t]*\r?\n", data[: 1 << 20])
     if not data.startswith(b"ply") or end is None:
         raise MeshFileError(f"'{path}' is not a PLY file: no 'ply ... end_header' "
                             f"header{_mf()._utf16_hint(data)}")
     lines = data[: end.end()].decode("latin-1").splitlines()
     fmt = next((ln.split() for ln in lines if ln.startswith("format")), ["", ""])
+    fmt += [""] * (2 - len(fmt))
     binary = fmt[1].startswith("binary")
+    if binary and fmt[1] not in _PLY_ORDER:
+        raise MeshFileError(f"'{path}' is corrupt: unknown PLY format {fmt[1]!r}; "
+                            "expected ascii, binary_little_endian or "
+                            "binary_big_endian")
     need, elements = 0, []
     for ln in lines:
         w = ln.split()
         if w[:1] == ["element"] and len(w) == 3:
             if not w[2].isdigit():
                 raise MeshFileError(f"'{path}' is corrupt: PLY header line {ln!r}")
-            elements.append([w[1], int(w[2]), 0, [], []])
+            elements.append(_Element(w[1], int(w[2])))
         elif w[:1] == ["property"] and elements and len(w) >= 3:
-            el = elements[-1]
             is_list = w[1] == "list" and len(w) == 5
-            # a list needs at least its count; a scalar its own size
-            size = _PLY_SIZES.get(w[2] if is_list else w[1], 1)
-            el[2] += size if binary else 2
-            el[4].append(w[4] if is_list else None)
-            if is_list:
-                el[3].append(w[4])
-                if el[0] == "face" and not {w[2], w[3]} <= _PLY_INTS:
-                    raise MeshFileError(
-                        f"'{path}' is corrupt: PLY face list property {w[4]!r} must "
-                        f"have integer types (vertex indices); got {w[2]!r} counts "
-                        f"and {w[3]!r} values")
-    for name, count, per_item, _, _ in elements:
-        if name == "vertex" and count > 3 * _mf().MAX_TRIANGLES:
-            raise _mf()._too_many(path, count, "vertices")
-        if name == "face" and count > _mf().MAX_TRIANGLES:
-            raise _mf()._too_many(path, count, "faces")
-        need += count * per_item
+            if binary and not set(w[2:4] if is_list else w[1:2]) <= _PLY_SIZES.keys():
+                raise MeshFileError(f"'{path}' is corrupt: PLY header line {ln!r} has "
+                                    "an unknown property type")
+            elements[-1].props.append((w[4], w[2], w[3]) if is_list
+                                      else (w[2], None, w[1]))
+    face = next((e for e in elements if e.name == "face"), None)
+    corners = _corners(face) if face is not None and face.count else None
+    for el in elements:
+        for name, count, value in el.props:
+            if name == corners and el is face and not {count, value} <= _PLY_INTS:
+                raise MeshFileError(
+                    f"'{path}' is corrupt: PLY face list property {name!r} must "
+                    f"have integer types (vertex indices); got {count!r} counts "
+                    f"and {value!r} values")
+            if binary and count is not None and count not in _PLY_INTS:
+                raise MeshFileError(f"'{path}' is corrupt: PLY list property {name!r} "
+                                    f"must have an integer count type; got {count!r}")
+    for el in elements:
+        if el.name == "vertex" and el.count > 3 * _mf().MAX_TRIANGLES:
+            raise _mf()._too_many(path, el.count, "vertices")
+        if el.name == "face" and el.count > _mf().MAX_TRIANGLES:
+            raise _mf()._too_many(path, el.count, "faces")
+        # a list needs at least its count; a scalar its own size
+        need += el.count * sum(_PLY_SIZES.get(c or v, 1) if binary else 2
+                               for _, c, v in el.props)
     have = len(data) - end.end()
     if need > have:
         raise MeshFileError(
             f"'{path}' is truncated or corrupt: its PLY header announces "
-            + " and ".join(f"{e[1]:,} '{e[0]}'" for e in elements)
+            + " and ".join(f"{e.count:,} '{e.name}'" for e in elements)
             + " elements"
             + f" (at least {need:,} bytes), but {have:,} bytes follow the header"
         )
-    face = next((e for e in elements if e[0] == "face"), None)
-    named = face is not None and any(n in face[3] for n in _PLY_FACE_NAMES)
-    if not binary:  # the list of vertex indices: a face's corners
-        _check_rows(path, data[end.end():], len(lines), "PLY", [
-            (e[0], e[1], [p is not None for p in e[4]],
-             [e is face and (p in _PLY_FACE_NAMES if named else
-                             p is not None and len(e[3]) == 1)
-              for p in e[4]]) for e in elements])
-    if face is None or face[1] == 0 or named:
-        return data
-    if len(face[3]) != 1:
+    return _Header(end.end(), len(lines), fmt[1], elements, face, corners)
+
+
+def _corners(face: _Element) -> str | None:
+    """The face element's list of vertex indices: by name, or its only list.
+
+    None if there is no such list (refused where the faces are read, by
+    :func:`_the_corners`).
+    """
+    named = [n for n in face.lists() if n in _PLY_FACE_NAMES]
+    if not named and len(face.lists()) != 1:
+        return None
+    return (named or face.lists())[0]
+
+
+def _the_corners(path: Path, h: _Header) -> str:
+    """The face element's list of vertex indices, or an error if it has none."""
+    if h.face is None or h.corners is None:
         raise MeshFileError(
             f"'{path}': the PLY face element must have one list property of vertex "
-            f"indices; got list properties {face[3]}"
+            f"indices; got list properties {h.face.lists() if h.face else []}"
         )
-    old = face[3][0].encode()
+    return h.corners
+
+
+def _ply_header(path: Path, data: bytes, h: _Header) -> bytes:
+    """Check an ASCII PLY body against its header; returns the bytes to parse.
+
+    The body is checked row by row against the header (:func:`_check_rows`). A
+    face element with one list property under another name than
+    ``vertex_indices``/``vertex_index`` gets that name, so it loads.
+    """
+    face = h.face
+    _check_rows(path, data[h.end:], h.lines, "PLY", [
+        (e.name, e.count, [c is not None for _, c, _ in e.props],
+         [e is face and n == h.corners for n, _, _ in e.props])  # a face's corners
+        for e in h.elements])
+    if face is None or face.count == 0 or h.corners in _PLY_FACE_NAMES:
+        return data
+    old = _the_corners(path, h).encode()
     header = re.sub(rb"(property[ \t]+list[ \t]+\S+[ \t]+\S+[ \t]+)" + re.escape(old)
-                    + rb"([ \t]*\r?\n)", rb"\1vertex_indices\2", data[: end.end()])
-    return header + data[end.end():]
+                    + rb"([ \t]*\r?\n)", rb"\1vertex_indices\2", data[: h.end])
+    return header + data[h.end:]
+
+
+# --------------------------------------------------------------------------
+# binary PLY: read here (trimesh reads every list with the first one's length)
+# --------------------------------------------------------------------------
+
+
+def read_ply_binary(path: Path, data: bytes, h: _Header) -> Arrays:
+    """Vertices (x, y, z) and triangle fans of the faces of a binary PLY file.
+
+    Every element is walked record by record through its list counts, so faces
+    of mixed corner counts (Blender writes triangles and quads) load, and a
+    count that is negative, runs past the end of the file or gives a face fewer
+    than 3 corners is refused, as are bytes after the last element.
+    """
+    order = _PLY_ORDER[h.fmt]
+    corners = _the_corners(path, h) if h.face is not None and h.face.count else None
+    pos, walked = h.end, []
+    for el in h.elements:
+        least = {corners: 3} if el is h.face else {}
+        records, pos = _walk(path, data, pos, el, order, least)
+        walked.append(records)
+    if pos != len(data):
+        raise MeshFileError(
+            f"'{path}' is corrupt: {len(data) - pos:,} bytes follow the elements its "
+            "PLY header announces")
+    v, f = np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
+    for el, records in zip(h.elements, walked, strict=True):
+        if el.name == "vertex" and el.count and not v.shape[0]:
+            names = [p[0] for p in el.props if p[1] is None]
+            missing = [a for a in "xyz" if a not in names]
+            if missing:
+                raise MeshFileError(f"'{path}' is corrupt: the PLY vertex element "
+                                    f"has no {' or '.join(missing)} property")
+            v = np.stack([_values(data, records, el, order, a)[0].astype(np.float64)
+                          for a in "xyz"], axis=1)
+        elif el is h.face and corners is not None:
+            idx, counts = _values(data, records, el, order, corners)
+            n_tri = int(counts.sum()) - 2 * el.count
+            if n_tri > _mf().MAX_TRIANGLES:
+                raise _mf()._too_many(path, n_tri)
+            f = fan_triangles(counts, idx.astype(np.int64))
+    return v, f
+
+
+def _widths(el: _Element, least: dict[str | None, int]) -> NDArray[np.int64]:
+    """Per property: count bytes (0: a scalar), value bytes, signed count, least."""
+    return np.array([[_PLY_SIZES[c] if c else 0, _PLY_SIZES[v],
+                      int(c is not None and c not in _PLY_UNSIGNED), least.get(n, 0)]
+                     for n, c, v in el.props], dtype=np.int64).reshape(-1, 4)
+
+
+def _record(path: Path, data: bytes, at: int, el: _Element, order: str,
+            least: dict[str | None, int], r: int) -> int:
+    """Size of record ``r`` of ``el`` at byte ``at``, or an error saying what is bad."""
+    size = 0
+    for name, count, value in el.props:
+        if count is None:
+            size += _PLY_SIZES[value]
+            continue
+        if at + size + _PLY_SIZES[count] > len(data):
+            break
+        n = int(np.frombuffer(data, order + _PLY_TYPES[count], 1, at + size)[0])
+        if n < least.get(name, 0):
+            raise MeshFileError(
+                f"'{path}' is corrupt: PLY '{el.name}' {r} (byte {at:,}) has a list "
+                f"of {n} values"
+                + ("; a face needs at least 3 vertices" if name in least else ""))
+        size += _PLY_SIZES[count] + n * _PLY_SIZES[value]
+    else:
+        if at + size <= len(data):
+            return size
+    raise MeshFileError(
+        f"'{path}' is truncated or corrupt: PLY '{el.name}' {r} (byte {at:,}) runs "
+        f"past the end of the file ({len(data):,} bytes)")
+
+
+@dataclass
+class _Records:
+    """Where the records of an element are: all ``stride`` bytes long, or not."""
+
+    start: int
+    count: int
+    stride: int = 0
+    starts: NDArray[np.int64] | None = None  # (count + 1,) unless all alike
+
+
+def _walk(path: Path, data: bytes, pos: int, el: _Element, order: str,
+          least: dict[str | None, int]) -> tuple[_Records, int]:
+    """Where the records of ``el`` (from byte ``pos``) are, and where they end.
+
+    Records whose lists all have the lengths of the first record's are checked
+    with one vectorised comparison per list; others are walked by a kernel.
+    """
+    if el.count == 0:
+        return _Records(pos, 0), pos
+    stride = _record(path, data, pos, el, order, least, 0)
+    if pos + el.count * stride <= len(data):
+        at, same = pos, True
+        for _, count, value in el.props:
+            if count is None:
+                at += _PLY_SIZES[value]
+                continue
+            n = _strided(data, at, el.count, stride, order + _PLY_TYPES[count])
+            same = bool((n == n[0]).all())
+            if not same:
+                break
+            at += _PLY_SIZES[count] + int(n[0]) * _PLY_SIZES[value]
+        if same:
+            return _Records(pos, el.count, stride), pos + el.count * stride
+    from vecslice._kernels.ply import record_starts
+
+    starts, done = record_starts(np.frombuffer(data, np.uint8), pos, el.count,
+                                 _widths(el, least), order == ">")
+    if done < el.count:  # raises, naming the record and what is wrong with it
+        _record(path, data, int(starts[done]), el, order, least, done)
+    return _Records(pos, el.count, starts=starts), int(starts[-1])
+
+
+def _strided(data: bytes, at: int, n: int, stride: int, dtype: str) -> NDArray[Any]:
+    """``n`` values of ``dtype`` from byte ``at``, ``stride`` bytes apart (a view)."""
+    return np.ndarray((n,), np.dtype(dtype), data, at, (stride,))
+
+
+def _at(data: bytes, at: NDArray[np.int64], dtype: str) -> NDArray[Any]:
+    """The values of ``dtype`` at the byte offsets ``at`` (gathered per alignment)."""
+    dt = np.dtype(dtype)
+    out = np.empty(at.shape[0], dt)
+    for k in range(dt.itemsize):
+        sel = np.flatnonzero(at % dt.itemsize == k)
+        view = np.frombuffer(data, dt, (len(data) - k) // dt.itemsize, k)
+        out[sel] = view[(at[sel] - k) // dt.itemsize]
+    return out
+
+
+def _values(data: bytes, rec: _Records, el: _Element, order: str,
+            name: str) -> tuple[NDArray[Any], NDArray[np.int64]]:
+    """Property ``name`` of every record: values (lists in a row), list counts.
+
+    The counts are empty for a scalar property.
+    """
+    j = next(i for i, p in enumerate(el.props) if p[0] == name)
+    _, count, value = el.props[j]
+    vtype, size = order + _PLY_TYPES[value], _PLY_SIZES[value]
+    if rec.starts is None:  # all records laid out as the first one
+        at = rec.start
+        for _, c, v in el.props[:j]:
+            at += _PLY_SIZES[v] if c is None else _PLY_SIZES[c] + _PLY_SIZES[v] * int(
+                np.frombuffer(data, order + _PLY_TYPES[c], 1, at)[0])
+        if count is None:
+            return _strided(data, at, rec.count, rec.stride, vtype), np.empty(0, int)
+        n = int(np.frombuffer(data, order + _PLY_TYPES[count], 1, at)[0])
+        lists = np.ndarray((rec.count, n), np.dtype(vtype), data,
+                           at + _PLY_SIZES[count], (rec.stride, size))
+        return lists.reshape(-1), np.full(rec.count, n, dtype=np.int64)
+    ats = rec.starts[:-1].copy()
+    for _, c, v in el.props[:j]:
+        ats += _PLY_SIZES[v] if c is None else _PLY_SIZES[c] + _PLY_SIZES[v] * _at(
+            data, ats, order + _PLY_TYPES[c]).astype(np.int64)
+    if count is None:
+        return _at(data, ats, vtype), np.empty(0, int)
+    n = _at(data, ats, order + _PLY_TYPES[count]).astype(np.int64)
+    first = ats + _PLY_SIZES[count] - (np.cumsum(n) - n) * size  # minus earlier items
+    items = np.repeat(first, n) + np.arange(int(n.sum()), dtype=np.int64) * size
+    return _at(data, items, vtype), n
+
+
+def fan_triangles(counts: NDArray[np.int64], corners: NDArray[np.int64]) -> NDArray[
+        np.int64]:
+    """Triangle fans of polygons: ``counts[k]`` corners each, in a row in ``corners``.
+
+    Polygon ``c0 .. c(n-1)`` gives ``(c0, cj, cj+1)`` for ``j = 1 .. n - 2``;
+    every count is at least 3.
+    """
+    if counts.shape[0] and counts.min() == counts.max() == 3:
+        return corners.reshape(-1, 3)  # triangles already
+    first = np.cumsum(counts) - counts
+    n_tri = counts - 2
+    tri_face = np.repeat(np.arange(counts.shape[0]), n_tri)
+    j = np.arange(tri_face.shape[0]) - np.repeat(np.cumsum(n_tri) - n_tri, n_tri)
+    base = first[tri_face]
+    return np.stack([corners[base], corners[base + j + 1], corners[base + j + 2]],
+                    axis=1)
 
 
 _OFF_COMMENT = re.compile(rb"#[^\n]*")

@@ -107,13 +107,14 @@ def adopt(new: NDArray[Any], given: object) -> NDArray[Any]:
 
 
 def nested_offsets(
-    coords: ArrayLike, levels: Sequence[tuple[str, ArrayLike]]
+    coords: ArrayLike, levels: Sequence[tuple[str, ArrayLike]], name: str = "coords"
 ) -> list[NDArray[np.int64]]:
     """Validate ``coords`` and a chain of offsets, innermost level first.
 
     ``levels`` is ``[(name, offsets), ...]``: the first offsets index ``coords``,
-    each next one the elements of the previous. Returns the coerced arrays
-    ``[coords, offsets_0, offsets_1, ...]`` (not yet frozen).
+    each next one the elements of the previous; ``name`` is how messages call
+    ``coords``. Returns the coerced arrays ``[coords, offsets_0, offsets_1, ...]``
+    (not yet frozen).
 
     Examples
     --------
@@ -122,7 +123,7 @@ def nested_offsets(
     >>> r.tolist(), lo.tolist()
     ([0, 3], [0, 1])
     """
-    out = [as_coords(coords, "coords")]
+    out = [as_coords(coords, name)]
     below = out[0].shape[0]
     for name, offsets in levels:
         o = as_offsets(offsets, below, name)

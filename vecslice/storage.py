@@ -40,6 +40,7 @@ __all__ = ["FORMAT", "FORMAT_VERSION", "SlicedModel", "load_sliced"]
 FORMAT = "vecslice.SlicedModel"
 FORMAT_VERSION = 1
 
+_MAX_COUNT = 2**31  # per layer: sums over 2**32 layers still fit int64
 _PER_LAYER = ("slice_z", "print_z", "thickness", "open_chains", "stitched_gaps")
 _FIELDS = (
     "slice_z", "print_z", "thickness", "layer_offsets", "part_offsets",
@@ -97,6 +98,20 @@ def _check_schedule(
         )
 
 
+def _check_counts(
+    open_chains: NDArray[np.int64], stitched_gaps: NDArray[np.int64]
+) -> None:
+    """The broken-mesh counts: per layer, 0 <= count < 2**31 (their sums fit int64)."""
+    for name, a in (("open_chains", open_chains), ("stitched_gaps", stitched_gaps)):
+        bad = np.flatnonzero((a < 0) | (a >= _MAX_COUNT))
+        if bad.size:
+            i = int(bad[0])
+            raise InputValueError(
+                f"`{name}` must be a count per layer, >= 0 and < 2**31; got "
+                f"{int(a[i])} at layer {i}"
+            )
+
+
 @dataclass(frozen=True, slots=True, eq=False)
 class SlicedModel(PartsLayout):
     """Layers of parts of rings, in flat int64 arrays with nested offsets.
@@ -129,9 +144,12 @@ class SlicedModel(PartsLayout):
         (positive area) or a hole not CW.
     InputValueError
         If a ``slice_z`` or ``print_z`` value reaches 2**30 µm in magnitude, a
-        ``thickness`` is not in 1 .. 2**30 - 1 µm, or ``print_z`` does not
-        strictly increase (layers are stacked: no two share a height). The
-        message names the field, the layer and the value.
+        ``thickness`` is not in 1 .. 2**30 - 1 µm, ``print_z`` does not
+        strictly increase (layers are stacked: no two share a height), an
+        ``open_chains`` or ``stitched_gaps`` count is negative or reaches 2**31,
+        or a ring's twice-area does not fit int64 (a ring that winds around more
+        than once near the coordinate limit). The message names the field or
+        ring, the layer and the value.
 
     Examples
     --------
@@ -203,6 +221,7 @@ class SlicedModel(PartsLayout):
                     f"got {v[name].shape[0]}"
                 )
         _check_schedule(v["slice_z"], v["print_z"], v["thickness"])
+        _check_counts(v["open_chains"], v["stitched_gaps"])
         v["coords"], v["ring_offsets"], v["part_offsets"] = nested_offsets(
             coords, [("ring_offsets", ring_offsets), ("part_offsets", part_offsets)]
         )
@@ -210,8 +229,8 @@ class SlicedModel(PartsLayout):
         check_part_rings(v["coords"], v["ring_offsets"], v["part_offsets"],
                          v["layer_offsets"])
         v["open_coords"], v["open_ring_offsets"] = nested_offsets(
-            given["open_coords"], [("open_ring_offsets", open_ring_offsets)]
-        )
+            given["open_coords"], [("open_ring_offsets", open_ring_offsets)],
+            "open_coords")
         v["open_layer_offsets"] = _layer_offsets(given, "open_",
                                                  v["open_ring_offsets"], n)
         self._set_fields({name: adopt(v[name], given[name]) for name in _FIELDS})
@@ -368,8 +387,9 @@ def load_sliced(
         a regular file (a FIFO or a device, refused at once, never read), not an
         .npz archive, not a vecslice model, of a newer format version, too large,
         damaged, or holds arrays of the wrong dtype, shape or layout (such as a
-        clockwise outline, a ring of fewer than 3 vertices, a thickness <= 0 or
-        ``print_z`` not increasing). The message names the path.
+        clockwise outline, a ring of fewer than 3 vertices, a thickness <= 0,
+        ``print_z`` not increasing or a negative ``open_chains`` count). The
+        message names the path.
 
     Examples
     --------

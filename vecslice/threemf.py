@@ -91,6 +91,7 @@ _RATIO_FROM = 1 << 20
 Key = tuple[str, int]  # (model part, object id)
 
 
+_SATURATED = np.iinfo(np.int64).max  # numpy's parse of any integer beyond int64
 _FEED = 1 << 20  # bytes of XML handed to the parser at a time
 _CHUNK = 1 << 16  # vertices or triangles parsed to numbers at a time
 
@@ -390,11 +391,23 @@ class _ModelReader(_Target):
             return
         obj, pkg = self.objects[-1], self.pkg
         element, _, dtype, what, expected, limit_name = _LISTS[kind]
-        a = _numbers(" ".join(buf), dtype, 3 * len(buf))
+        text = " ".join(buf)
+        # one number per attribute: no space but the 3n - 1 joining ones, no
+        # empty attribute, no other whitespace ('y="0 10" z=""' shifted values)
+        a = None
+        if (text.count(" ") == 3 * len(buf) - 1 and "  " not in text
+                and text[0] != " " and text[-1] != " " and text.isprintable()):
+            a = _numbers(text, dtype, 3 * len(buf))
         if a is None:
-            k = next(i for i, s in enumerate(buf) if _numbers(s, dtype, 3) is None)
+            k = next(i for i, s in enumerate(buf) if not _one_each(s)
+                     or _numbers(s, dtype, 3) is None)
             raise pkg.fail(f"{obj.where}: {element} {obj.n[kind] + k} has {what} "
                            f"{buf[k]!r}; expected {expected}")
+        if kind == "triangles" and (a == _SATURATED).any():  # beyond int64: quote
+            k = int(np.flatnonzero(a == _SATURATED)[0]) // 3  # the file's text
+            raise pkg.fail(f"{obj.where}: triangle {obj.n[kind] + k} refers to "
+                           f"vertices [{', '.join(buf[k].split(' '))}], but the "
+                           f"object has {obj.n['vertices']} vertices")
         obj.chunks[kind].append(a)
         obj.n[kind] += len(buf)
         pkg.counts[element] += len(buf)
@@ -418,6 +431,12 @@ class _ModelReader(_Target):
                            f"{f[k].tolist()}, but the object has {v.shape[0]} "
                            "vertices")
         pkg.objects[(self.part, int(obj.oid))] = _Object(v, f, obj.components)
+
+
+def _one_each(entry: str) -> bool:
+    """Whether ``'x y z'`` (three attributes joined) has one token per attribute."""
+    parts = entry.split(" ")
+    return len(parts) == 3 and "" not in parts and entry.isprintable()
 
 
 def _parse_part(pkg: _Package, name: str, *, root: bool) -> None:
@@ -534,7 +553,18 @@ def read_3mf(path: Path, size: int) -> tuple[NDArray[np.float64], NDArray[np.int
         raise MeshFileError(f"cannot read '{path}' as 3MF: BadZipFile: {exc}"
                             ) from exc
     with zf:
-        members = {_norm(i.filename): i for i in zf.infolist()}
+        members: dict[str, zipfile.ZipInfo] = {}
+        for info in zf.infolist():
+            key = _norm(info.filename)
+            if key in members:  # OPC: names compare case-insensitively
+                first = members[key].filename
+                raise MeshFileError(
+                    f"'{path}' is not a valid 3MF package: it holds the part "
+                    f"'{first}' twice"
+                    + (f" (as '{info.filename}')" if info.filename != first else "")
+                    + "; part names must differ in more than case, so which one a "
+                    "reader takes would be arbitrary")
+            members[key] = info
         pkg = _Package(path, zf, members, budget=MAX_MODEL_BYTES)
         root = _model_part(pkg)
         pkg.root = _norm(root)

@@ -4,6 +4,7 @@ from hypothesis import strategies as st
 
 import reference
 from vecslice._kernels.rings import (
+    AREA2_BEYOND_INT64,
     group_rings,
     ring_area2,
     ring_keys,
@@ -121,3 +122,39 @@ def test_ring_keys_see_every_coordinate_and_the_vertex_count():
             assert ring_keys(moved, np.array([0, 3]))[0] != key
     assert ring_keys(base[:2], np.array([0, 2]))[0] != key
     assert ring_keys(base[[1, 2, 0]], np.array([0, 3]))[0] != key  # rotated
+
+
+near_limit = st.integers(2**30 - 2**20, 2**30 - 1)
+
+
+@st.composite
+def wound_rings(draw):
+    """Rings near the coordinate limit, traversed 1 to 4 times, either way."""
+    corners = draw(st.lists(st.tuples(near_limit, near_limit), min_size=3,
+                            max_size=6))
+    signs = draw(st.lists(st.tuples(st.sampled_from([-1, 1]),
+                                    st.sampled_from([-1, 1])),
+                          min_size=len(corners), max_size=len(corners)))
+    ring = [(sx * x, sy * y) for (x, y), (sx, sy) in zip(corners, signs, strict=True)]
+    ring = ring * draw(st.integers(1, 4))
+    if draw(st.booleans()):
+        ring = ring[::-1]
+    return np.array(ring, dtype=np.int64), np.array([0, len(ring)], dtype=np.int64)
+
+
+@given(wound_rings())
+def test_ring_area2_is_exact_or_beyond_int64_near_the_limit(case):
+    # audit s24 D6: the int64 sum wrapped, so a clockwise ring wound twice
+    # came out with a positive area
+    coords, offsets = case
+    assert ring_area2(coords, offsets).tolist() == reference.ring_area2(coords, offsets)
+
+
+def test_ring_area2_of_a_square_wound_twice():
+    lim = 2**30 - 1
+    square = [[-lim, -lim], [lim, -lim], [lim, lim], [-lim, lim]]
+    for ring, expect in [(square, (2 * lim) ** 2 * 2),
+                         (square * 2, AREA2_BEYOND_INT64),
+                         (square[::-1] * 2, AREA2_BEYOND_INT64)]:
+        got = ring_area2(np.array(ring, np.int64), np.array([0, len(ring)], np.int64))
+        assert got.tolist() == [expect]

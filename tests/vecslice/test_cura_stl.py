@@ -287,3 +287,20 @@ def test_trimesh_scene_face_indices_are_checked():
                            r"'bad' must index its vertices in \[0, 4\); got 5 at "
                            r"face 1"):
             vs.load_mesh(scene, compat=compat)
+
+
+@pytest.mark.parametrize("make", [_ascii, _binary], ids=["ascii", "binary"])
+def test_triangle_limit_applies_as_for_the_default_reader(tmp_path, monkeypatch,
+                                                          make):
+    # audit s24 D12: compat='cura' never applied MAX_TRIANGLES
+    tris = [[(0, 0, 0), (1, 0, 0), (0, 1, 0)], [(0, 0, 0), (0, 1, 0), (0, 0, 1)],
+            [(0, 0, 0), (0, 0, 1), (1, 0, 0)]]
+    path = _write(tmp_path, make(tris))
+    monkeypatch.setattr("vecslice.meshfile.MAX_TRIANGLES", 3)
+    assert vs.load_mesh(path, compat="cura").n_faces == 3
+    monkeypatch.setattr("vecslice.meshfile.MAX_TRIANGLES", 2)
+    for compat in ("vecslice", "cura"):
+        with pytest.raises(vs.MeshFileError, match=r"m\.stl' announces 3 triangles; "
+                           r"vecslice reads at most 2 triangles \(vecslice\.meshfile"
+                           r"\.MAX_TRIANGLES\)"):
+            vs.load_mesh(path, compat=compat)

@@ -614,3 +614,18 @@ def test_damaged_files_never_leak_raw_exceptions(meshes_dir, tmp_path, name):
         except vs.VecsliceError:
             continue
         assert m.n_faces > 0 and m.vertices.dtype == np.int64
+
+
+def test_repair_errors_name_the_file(tmp_path):
+    # audit s24 D11: a file whose faces all cancel in the repair gave an
+    # InputValueError about `mesh`, not a MeshFileError naming the file
+    facets = "".join(
+        f"facet normal 0 0 0\nouter loop\nvertex {a}\nvertex {b}\nvertex {c}\n"
+        "endloop\nendfacet\n"
+        for a, b, c in [("0 0 0", "1 0 0", "0 1 0"), ("0 0 0", "0 1 0", "1 0 0")])
+    path = tmp_path / "two_sided.stl"
+    path.write_text(f"solid t\n{facets}endsolid t\n")
+    with pytest.raises(vs.MeshFileError, match=r"'.*two_sided\.stl': `mesh` has no "
+                       r"faces left after repair: every face cancels"):
+        vs.load_mesh(path)
+    assert vs.load_mesh(path, repair=False).n_faces == 2

@@ -478,3 +478,59 @@ def test_utf16_text_is_named(tmp_path, ext, text, codec):
     refused(write(tmp_path, f"t.{ext}", text.encode(codec)),
             r"t\." + ext + r"' .*\(it looks like UTF-16 text; save it as ASCII or "
             r"UTF-8\)")
+
+
+@pytest.mark.parametrize("sep", ["\v", "\f"])
+def test_obj_slash_token_ends_at_any_whitespace(tmp_path, sep):
+    # audit s24 D4: '2/1\v3/1' lost corner 3 (the /vt suffix ran to the next space)
+    m = vs.load_mesh(write(tmp_path, "w.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+                           f"vt 0 0\nf 1/1 2/1{sep}3/1 4/1\n"), repair=False)
+    assert m.n_faces == 2
+    assert sorted(m.vertices[m.faces].reshape(-1, 3)[:, :2].tolist()) == sorted(
+        [[0, 0], [1000, 0], [1000, 1000], [0, 0], [1000, 1000], [0, 1000]])
+
+
+@pytest.mark.parametrize(("index", "why"), [
+    ("-99999999999999999999999", "only 3 vertices are defined before it"),
+    ("18446744073709551619", "the file has 3 vertices"),
+    ("9223372036854775807", "the file has 3 vertices"),
+])
+def test_obj_index_beyond_int64_is_quoted_as_written(tmp_path, index, why):
+    # audit s24 D10: reported as 9223372036854775807 (numpy saturates)
+    refused(write(tmp_path, "s.obj", f"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 {index}\n"),
+            rf"s\.obj' is corrupt: face 1 \(line 4\) refers to vertex {index}; {why}")
+
+
+def _stl_facets(sizes):
+    """An ASCII STL of a tetrahedron's 12 corners in facets of ``sizes`` vertices."""
+    corners = [(0, 0, 0), (10, 0, 0), (0, 10, 0), (0, 0, 10)]
+    flat = [corners[i] for t in [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]
+            for i in t]
+    lines, at = ["solid s"], 0
+    for n in sizes:
+        lines += ["facet normal 0 0 0", "outer loop"]
+        lines += [f"vertex {x} {y} {z}" for x, y, z in flat[at:at + n]]
+        lines += ["endloop", "endfacet"]
+        at += n
+    return "\n".join([*lines, "endsolid s", ""])
+
+
+@pytest.mark.parametrize(("sizes", "match"), [
+    ((4, 2, 3, 3), r"facet 1 \(line 3\) has 4"),
+    ((3, 2, 4, 3), r"facet 2 \(line 10\) has 2"),
+    ((3, 3, 3, 0), r"got 9 vertices in 4 facets"),
+])
+def test_ascii_stl_facets_have_three_vertices_each(tmp_path, sizes, match):
+    # audit s24 D7: only the total was compared; 4 + 2 regrouped the vertices
+    refused(write(tmp_path, "r.stl", _stl_facets(sizes)), r"r\.stl' is corrupt: "
+            r"ASCII STL facets must have 3 vertices each; " + match)
+    m = vs.load_mesh(write(tmp_path, "g.stl", _stl_facets((3, 3, 3, 3))))
+    assert m.n_faces == 4 and m.is_watertight
+
+
+def test_ascii_stl_vertex_before_the_first_facet(tmp_path):
+    data = (TRI_STL % (b"v", b"v")).replace(b"vertex 0 1 0\n", b"")
+    data = data.replace(b"facet normal", b"vertex 5 5 5\nfacet normal", 1)
+    refused(write(tmp_path, "v.stl", data), r"v\.stl' is corrupt: ASCII STL facets "
+            r"must have 3 vertices each; 1 vertices come before the first facet "
+            r"\(line 4\)")

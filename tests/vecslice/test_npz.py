@@ -95,6 +95,49 @@ def test_zip_bomb_is_refused_before_inflating(tmp_path):
     assert "member 'coords.npy' would inflate" in msg and "zip bomb" in msg
 
 
+def prism_model(n_layers, ring):
+    """``n_layers`` layers of the same ring: its coords repeat every layer."""
+    ring = np.asarray(ring, dtype=np.int64)
+    z = np.arange(n_layers) * 20 + 10
+    steps = np.arange(n_layers + 1)
+    return SlicedModel(z, z + 10, np.full(n_layers, 20), steps, steps,
+                       steps * len(ring), np.tile(ring, (n_layers, 1)))
+
+
+@pytest.mark.parametrize(("model", "member"), [
+    # a 20 mm square column at 20 µm layers, 400 mm tall (audit s24 D2: 333:1)
+    (lambda: prism_model(20_000, [[0, 0], [20_000, 0], [20_000, 20_000],
+                                  [0, 20_000]]), "coords.npy"),
+    # 300,000 empty layers: the zero per-layer counts deflate about 1000:1
+    (lambda: SlicedModel(np.arange(300_000) * 5 + 1, np.arange(300_000) * 5 + 5,
+                         np.full(300_000, 5), np.zeros(300_001, np.int64), [0], [0],
+                         np.empty((0, 2), np.int64)), "open_chains.npy"),
+], ids=["prism", "empty-layers"])
+def test_compressed_saves_with_members_beyond_the_ratio_load(tmp_path, model, member):
+    # audit s24 D2: save(compress=True) wrote files load_sliced called zip bombs
+    m = model()
+    m.save(tmp_path / "m.npz", compress=True)
+    info = zipfile.ZipFile(tmp_path / "m.npz").getinfo(member)
+    assert info.file_size > 2**20
+    assert info.file_size > vs.npz.MAX_RATIO * info.compress_size
+    back = load_sliced(tmp_path / "m.npz")
+    for k in FIELDS:
+        assert np.array_equal(getattr(back, k), getattr(m, k)), k
+
+
+def test_zip_bomb_beyond_max_bytes_is_refused_before_inflating(tmp_path):
+    # the total size limit refuses a bomb before anything is inflated, whatever
+    # its compression ratio
+    n = 2**22  # rows of (x, y): 64 MiB of zeros
+    members = members_of(good_arrays())
+    members["coords"] = ({"descr": "<i8", "fortran_order": False,
+                          "shape": (n, 2)}, 16 * n)
+    path = write_zip(tmp_path / "bomb.npz", members, deflate=True)
+    peak, msg = peak_traced_load(path, max_bytes=2**25)
+    assert peak < 2**22
+    assert "holds more than `max_bytes` = 33554432 bytes of arrays" in msg
+
+
 def test_header_claiming_10_12_rows_is_refused_without_memory_error(tmp_path):
     """Issue 8 C2: a .npy header claiming 10**12 rows raised MemoryError."""
     members = members_of(good_arrays())

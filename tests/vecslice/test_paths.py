@@ -155,3 +155,22 @@ def test_raw_area_of_overlapping_huge_rings_does_not_wrap():
     raw = vs.LayerPaths(np.vstack([square, square]), [0, 4, 8], [0, 2])
     err, _ = simplification_errors(raw)
     assert err.raw_area_um2.tolist() == [float(2 * (2 * x) ** 2)]
+
+
+def test_area2_of_a_ring_wound_twice_near_the_limit_is_refused():
+    # audit s24 D6: its twice-area (about 2**64) wrapped around in int64
+    x = 2**30 - 1
+    square = [[-x, -x], [x, -x], [x, x], [-x, x]]
+    twice = np.array(square * 2)
+    with pytest.raises(vs.InputValueError, match=r"twice the signed area of ring 0 "
+                       r"must fit int64 \(\|value\| < 2\*\*63\); got "
+                       r"18446744039349813264 µm² \(a ring that winds around more "
+                       "than once near the coordinate limit\\)"):
+        vs.Paths(twice, [0, 8]).area2()
+    lp = vs.LayerPaths(np.vstack([square, twice[::-1]]), [0, 4, 12], [0, 1, 2])
+    with pytest.raises(vs.InputValueError, match=r"ring 1 \(layer 1\) must fit int64"
+                       r".*got -18446744039349813264 µm²"):
+        lp.area2()
+    with pytest.raises(vs.InputValueError, match=r"ring 1 \(layer 1\) must fit"):
+        lp.layer_area2()
+    assert vs.Paths(np.array(square), [0, 4]).area2().tolist() == [2 * (2 * x) ** 2]

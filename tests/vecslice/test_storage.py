@@ -425,3 +425,81 @@ def test_every_schedule_vecslice_makes_is_a_valid_model(tmp_path):
         model.save(tmp_path / "m.npz")
         assert load_sliced(tmp_path / "m.npz").print_z.tolist() == \
             model.print_z.tolist()
+
+
+@pytest.mark.parametrize(
+    ("counts", "fragment"),
+    [
+        # audit s24 D8: negative counts loaded; 2**62 twice summed to -2**63
+        ({"open_chains": [0, -1]}, r"`open_chains` must be a count per layer, >= 0 "
+                                   r"and < 2\*\*31; got -1 at layer 1"),
+        ({"open_chains": [2**62, 2**62]}, r"`open_chains` .* got 4611686018427387904 "
+                                          "at layer 0"),
+        ({"stitched_gaps": [-5, 0]}, "`stitched_gaps` must be a count per layer, "
+                                     ">= 0 and < 2\\*\\*31; got -5 at layer 0"),
+        ({"stitched_gaps": [0, 2**31]}, "`stitched_gaps` .* got 2147483648 at layer 1"),
+    ],
+)  # fmt: skip
+def test_broken_mesh_counts_are_validated(tmp_path, counts, fragment):
+    good = SlicedModel([100, 250], [200, 300], [200, 100], [0, 1, 1], [0, 1], [0, 4],
+                       SQ)
+    with pytest.raises(InputValueError, match=fragment):
+        SlicedModel([100, 250], [200, 300], [200, 100], [0, 1, 1], [0, 1], [0, 4], SQ,
+                    **counts)
+    arrays = _good(good) | {k: np.asarray(v, np.int64) for k, v in counts.items()}
+    path = _npz(tmp_path / "bad.npz", **arrays)
+    with pytest.raises(StorageFileError,
+                       match="holds an invalid vecslice model: .*" + fragment):
+        load_sliced(path)
+    ok = SlicedModel([100, 250], [200, 300], [200, 100], [0, 1, 1], [0, 1], [0, 4], SQ,
+                     open_chains=[0, 2**31 - 1], stitched_gaps=[7, 0])
+    assert ok.open_chains.tolist() == [0, 2**31 - 1]
+
+
+@pytest.mark.parametrize(
+    ("open_coords", "fragment", "error"),
+    [
+        # audit s24 D9: these named `coords`, which was valid
+        ([[0.5, 0.0], [1.0, 1.0]], "`open_coords` must be integer microns; got "
+                                   "dtype float64", InputTypeError),
+        ([[0, 0], [2**31, 0]], r"`open_coords` must satisfy \|value\| < 2\*\*30 µm "
+                               r".*got 2147483648 at row 1", InputValueError),
+        ([[0, 0, 0], [1, 1, 1]], r"`open_coords` must have shape \(N, 2\); got shape "
+                                 r"\(2, 3\)", InputValueError),
+    ],
+)  # fmt: skip
+def test_open_coords_errors_name_open_coords(tmp_path, open_coords, fragment, error):
+    with pytest.raises(error, match=fragment):
+        SlicedModel([100], [200], [200], [0, 1], [0, 1], [0, 4], SQ,
+                    open_coords=open_coords, open_ring_offsets=[0, 2],
+                    open_layer_offsets=[0, 1])
+    if error is InputValueError and len(open_coords[0]) == 2:
+        good = SlicedModel([100], [200], [200], [0, 1], [0, 1], [0, 4], SQ,
+                           open_coords=[[0, 0], [5, 5]], open_ring_offsets=[0, 2],
+                           open_layer_offsets=[0, 1])
+        path = _npz(tmp_path / "o.npz", **(_good(good) | {
+            "open_coords": np.asarray(open_coords, np.int64)}))
+        with pytest.raises(StorageFileError, match="holds an invalid vecslice model: "
+                           + fragment):
+            load_sliced(path)
+
+
+@pytest.mark.parametrize("cw", [True, False], ids=["clockwise", "counter-clockwise"])
+def test_outline_wound_twice_near_the_limit_is_refused(tmp_path, cw):
+    # audit s24 D6: the twice-area of a clockwise square wound twice wrapped to
+    # +1.7e10 in int64, so the ring was accepted as an outline
+    x = 2**30 - 1
+    twice = rect(-x, -x, x, x, cw=cw) * 2
+    fragment = (r"twice the signed area of ring 0 \(the outline of part 0, layer 0\) "
+                r"must fit int64 \(\|value\| < 2\*\*63\); got "
+                + ("-" if cw else "") + "18446744039349813264 µm²")
+    with pytest.raises(InputValueError, match=fragment):
+        SlicedModel([1], [2], [2], [0, 1], [0, 1], [0, 8], twice)
+    with pytest.raises(InputValueError, match=fragment):
+        LayerParts(twice, [0, 8], [0, 1], [0, 1])
+    good = SlicedModel([1], [2], [2], [0, 1], [0, 1], [0, 8], rect(0, 0, 10, 10) * 2)
+    path = _npz(tmp_path / "w.npz", **(_good(good) | {
+        "coords": np.asarray(twice, np.int64)}))
+    with pytest.raises(StorageFileError,
+                       match="holds an invalid vecslice model: " + fragment):
+        load_sliced(path)

@@ -2,10 +2,12 @@
 packages. Every package is generated here."""
 
 import io
+import re
 import struct
 import subprocess
 import sys
 import tracemalloc
+import warnings
 import zipfile
 
 import numpy as np
@@ -437,3 +439,54 @@ def test_garbage_and_truncated_packages(tmp_path):
     with pytest.raises(vs.MeshFileError, match=r"as 3MF: XMLSyntaxError in part "
                        r"'_rels/\.rels'"):
         vs.load_mesh(tmp_path / "r.3mf")
+
+
+SPLIT_ATTRIBUTES = [
+    # audit s24 D3: the attributes were parsed as one stream of numbers
+    ("two numbers in y, z empty", ('<vertex x="0" y="0" z="10"/>',
+                                   '<vertex x="0" y="0 10" z=""/>'),
+     r"object 1: vertex 3 has coordinates '0 0 10 '; expected x, y and z numbers"),
+    ("shift between vertices", ('<vertex x="10" y="0" z="0"/>'
+                                '<vertex x="0" y="10" z="0"/>',
+                                '<vertex x="10 0" y="0" z="0"/>'
+                                '<vertex x="10" y="0" z=""/>'),
+     r"object 1: vertex 1 has coordinates '10 0 0 0'"),
+    ("tab inside, x empty", ('<vertex x="0" y="0" z="10"/>',
+                             '<vertex x="" y="0&#9;0" z="10"/>'),
+     r"object 1: vertex 3 has coordinates ' 0\\t0 10'"),
+    ("two indices in v2", ('v1="0" v2="2" v3="1"', 'v1="0" v2="2 1" v3=""'),
+     r"object 1: triangle 0 has vertices '0 2 1 '; expected v1, v2 and v3 indices"),
+]
+
+
+@pytest.mark.parametrize(("label", "edit", "match"), SPLIT_ATTRIBUTES,
+                         ids=[c[0] for c in SPLIT_ATTRIBUTES])
+def test_each_attribute_holds_one_number(tmp_path, label, edit, match):
+    xml = model(mesh_object(1), [(1, None)])
+    assert edit[0] in xml
+    refused(tmp_path, xml.replace(*edit, 1), match)
+
+
+@pytest.mark.parametrize("second", ["3D/3dmodel.model", "3d/3DMODEL.model",
+                                    "/3D/3dmodel.model", "3D/3d%6Dodel.model"])
+def test_duplicate_part_names_are_refused(tmp_path, second):
+    # audit s24 D5: the last of two equivalent parts was loaded, silently
+    big = model(mesh_object(1, v=[(5 * x, 5 * y, 5 * z) for x, y, z in TET_V]),
+                [(1, None)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # zipfile: "Duplicate name"
+        path = write_3mf(tmp_path / "d.3mf", model(mesh_object(1), [(1, None)]),
+                         extra=[(second, big)])
+    as_ = "" if second == "3D/3dmodel.model" else f" (as '{second}')"
+    with pytest.raises(vs.MeshFileError, match=r"d\.3mf' is not a valid 3MF package: "
+                       r"it holds the part '3D/3dmodel\.model' twice"
+                       + re.escape(as_) + "; part names must differ"):
+        vs.load_mesh(path)
+
+
+def test_triangle_index_beyond_int64_is_quoted_as_written(tmp_path):
+    # audit s24 D10: reported as 9223372036854775807
+    for index in ("-99999999999999999999", "18446744073709551619"):
+        xml = model(mesh_object(1), [(1, None)]).replace('v3="3"', f'v3="{index}"', 1)
+        refused(tmp_path, xml, r"object 1: triangle 1 refers to vertices \[0, 1, "
+                + index + r"\], but the object has 4 vertices")

@@ -1,0 +1,215 @@
+"""Binary PLY read by vecslice.plyoff: every element walked through its list counts,
+faces of mixed corner counts loaded as fans, lying counts refused (audit s24 D1).
+Every file is generated here."""
+
+import struct
+
+import numpy as np
+import pytest
+
+import vecslice as vs
+from vecslice.meshfile import read_mesh_file
+
+CODES = {"char": "b", "uchar": "B", "short": "h", "ushort": "H", "int": "i",
+         "uint": "I", "float": "f", "double": "d"}
+CUBE_V = [(x, y, z) for z in (0, 10) for y in (0, 10) for x in (0, 10)]
+# bottom and top as quads (outward), the sides as two triangles each
+CUBE_F = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5], [0, 5, 4], [1, 3, 7], [1, 7, 5],
+          [3, 2, 6], [3, 6, 7], [2, 0, 4], [2, 4, 6]]
+XYZ = [("x", "float"), ("y", "float"), ("z", "float")]
+
+
+def ply(elements, order="<"):
+    """A PLY file. ``elements``: (name, properties, records); a property is
+    (name, type) or (name, (count type, value type)); a record holds a value per
+    property, a list for a list property, or (count, list) to write a count that
+    is not the list's length."""
+    fmt = {"<": "binary_little_endian", ">": "binary_big_endian", "a": "ascii"}[order]
+    head = [f"ply\nformat {fmt} 1.0\n"]
+    body = []
+    for name, props, records in elements:
+        head.append(f"element {name} {len(records)}\n")
+        for pname, ptype in props:
+            head.append(f"property list {ptype[0]} {ptype[1]} {pname}\n"
+                        if isinstance(ptype, tuple) else f"property {ptype} {pname}\n")
+        for rec in records:
+            row = []
+            for (_, ptype), value in zip(props, rec, strict=True):
+                if isinstance(ptype, tuple):
+                    n, items = (value if isinstance(value, tuple)
+                                else (len(value), value))
+                    row.append(_pack(order, ptype[0], [n])
+                               + (b" " if order == "a" else b"")
+                               + _pack(order, ptype[1], items))
+                else:
+                    row.append(_pack(order, ptype, [value]))
+            body.append(b" ".join(row) + b"\n" if order == "a" else b"".join(row))
+    return ("".join(head) + "end_header\n").encode() + b"".join(body)
+
+
+def _pack(order, ptype, values):
+    if order == "a":
+        return " ".join(str(v) for v in values).encode()
+    return struct.pack(order + CODES[ptype] * len(values), *values)
+
+
+def mesh_ply(v, f, order="<", counts="uchar", index="int"):
+    return ply([("vertex", XYZ, v), ("face", [("vertex_indices", (counts, index))],
+                                     [[face] for face in f])], order)
+
+
+def write(tmp_path, name, data):
+    p = tmp_path / name
+    p.write_bytes(data)
+    return p
+
+
+def refused(path, match):
+    with pytest.raises(vs.MeshFileError, match=match):
+        vs.load_mesh(path)
+
+
+def triangles(v, f):
+    """The triangles of (v, f): corner positions from the least, sorted."""
+    v = np.asarray(v, np.float64)
+    out = []
+    for t in np.asarray(f):
+        corners = [tuple(p) for p in v[t].tolist()]
+        k = corners.index(min(corners))  # rotated, not reflected: winding kept
+        out.append(tuple(corners[k:] + corners[:k]))
+    return sorted(out)
+
+
+def fans(v, faces):
+    return triangles(v, [(p[0], p[j], p[j + 1]) for p in faces
+                         for j in range(1, len(p) - 1)])
+
+
+@pytest.mark.parametrize("order", ["<", ">"])
+def test_faces_of_mixed_corner_counts_load_as_fans(tmp_path, order):
+    # Blender's PLY exporter writes binary faces of 3 and 4 corners, mixed: they
+    # were refused ("PLY is unexpected length!")
+    for counts, index in [("uchar", "int"), ("ushort", "uint"), ("char", "short")]:
+        p = write(tmp_path, "c.ply", mesh_ply(CUBE_V, CUBE_F, order, counts, index))
+        v, f = read_mesh_file(p)
+        assert triangles(v, f) == fans(CUBE_V, CUBE_F)
+        m = vs.load_mesh(p)
+        assert m.n_faces == 12 and m.is_watertight
+    twin = write(tmp_path, "a.ply", mesh_ply(CUBE_V, CUBE_F, "a"))
+    assert triangles(*read_mesh_file(twin)) == fans(CUBE_V, CUBE_F)
+
+
+def test_polygons_as_long_as_uniform_records_load_their_own_triangles(tmp_path):
+    # a quad, a triangle and a pentagon: 12 corners, the size of three quads;
+    # trimesh read them with a 4-corner stride and loaded other triangles
+    faces = [[0, 1, 2, 3], [1, 3, 4], [0, 4, 5, 6, 7]]
+    for first in (faces, faces[::-1]):  # a pentagon first: fewer bytes than 3 of it
+        v, f = read_mesh_file(write(tmp_path, "p.ply", mesh_ply(CUBE_V, first)))
+        assert triangles(v, f) == fans(CUBE_V, first)
+
+
+# byte offsets of the faces below: 4 vertices of 12 bytes, then 13 per triangle
+@pytest.mark.parametrize(("make", "match", "at"), [
+    # the counts say 0, 2 and 1 corners, each followed by 3 indices: loaded as
+    # 4 triangles before
+    (lambda: mesh_ply(CUBE_V[:4], [[0, 1, 2], (0, [0, 2, 3]), (2, [1, 3, 2]),
+                                   (1, [0, 3, 1])]),
+     r"is corrupt: PLY 'face' 1 \(byte {}\) has a list of 0 values; a face needs "
+     r"at least 3 vertices$", 48 + 13),
+    (lambda: mesh_ply(CUBE_V[:4], [[0, 1], [1, 2]]),
+     r"PLY 'face' 0 \(byte {}\) has a list of 2 values; a face needs at least 3",
+     48),
+    (lambda: mesh_ply(CUBE_V[:4], [[0, 1, 2], (-1, [])], counts="char"),
+     r"PLY 'face' 1 \(byte {}\) has a list of -1 values", 48 + 13),
+    (lambda: mesh_ply(CUBE_V[:4], [(2**32 - 1, [0, 1, 2])], counts="uint"),
+     r"is truncated or corrupt: PLY 'face' 0 \(byte {}\) runs past the end of the "
+     r"file \(\d+ bytes\)", 48),
+    (lambda: mesh_ply(CUBE_V[:4], [[0, 1, 2], [0, 2, 3, 1]])[:-1],
+     r"is truncated or corrupt: PLY 'face' 1 \(byte {}\) runs past the end", 61),
+    (lambda: mesh_ply(CUBE_V[:4], [[0, 1, 2], [0, 2, 3, 1]]) + b"\n",
+     r"is corrupt: 1 bytes follow the elements its PLY header announces", 0),
+    (lambda: ply([("vertex", [*XYZ, ("n", ("char", "float"))],
+                   [(0, 0, 0, [1.0]), (1, 0, 0, (-3, []))]),
+                  ("face", [("vertex_indices", ("uchar", "int"))], [])]),
+     r"PLY 'vertex' 1 \(byte {}\) has a list of -3 values$", 12 + 1 + 4),
+    (lambda: mesh_ply(CUBE_V, CUBE_F).replace(b"binary_little_endian",
+                                              b"binary_middle_endian"),
+     r"unknown PLY format 'binary_middle_endian'", 0),
+    (lambda: mesh_ply(CUBE_V, CUBE_F).replace(b"float z", b"float4 z"),
+     r"PLY header line 'property float4 z' has an unknown property type", 0),
+    (lambda: mesh_ply(CUBE_V, CUBE_F).replace(b"float z", b"float w"),
+     r"the PLY vertex element has no z property", 0),
+    (lambda: mesh_ply(CUBE_V, CUBE_F).replace(b"list uchar", b"list float"),
+     r"PLY face list property 'vertex_indices' must have integer types", 0),
+    (lambda: mesh_ply(CUBE_V, CUBE_F, index="double"),
+     r"PLY face list property 'vertex_indices' must have integer types", 0),
+])
+def test_lying_or_damaged_binary_ply_is_refused(tmp_path, make, match, at):
+    data = make()
+    body = data.index(b"end_header\n") + len(b"end_header\n")
+    refused(write(tmp_path, "bad.ply", data),
+            r"bad\.ply' .*" + match.replace("{}", f"{body + at:,}"))
+
+
+@pytest.mark.parametrize("order", ["<", ">"])
+def test_other_properties_and_elements_are_walked(tmp_path, order):
+    """Elements before and after the faces, properties around the corner list,
+    lists of varying lengths everywhere: only x, y, z and the corners count."""
+    rng = np.random.default_rng(7)
+    material = ("material", [("ambient", "uchar"), ("name", ("uchar", "char"))],
+                [(1, [65, 66]), (2, []), (3, [67])])
+    vertex = ("vertex", [("w", "double"), *XYZ, ("red", "uchar"),
+                         ("tags", ("ushort", "short"))],
+              [(0.5, *p, 200, list(rng.integers(-9, 9, k)))
+               for p, k in zip(CUBE_V, rng.integers(0, 4, len(CUBE_V)), strict=True)])
+    face = ("face", [("flags", "uchar"), ("vertex_index", ("uchar", "uint")),
+                     ("texcoord", ("uchar", "float"))],
+            [(1, p, list(rng.random(2 * len(p)))) for p in CUBE_F])
+    edge = ("edge", [("vertex1", "int"), ("vertex2", "int")], [(0, 1), (1, 2)])
+    p = write(tmp_path, "o.ply", ply([material, vertex, face, edge], order))
+    v, f = read_mesh_file(p)
+    assert v.tolist() == [list(map(float, q)) for q in CUBE_V]
+    assert triangles(v, f) == fans(CUBE_V, CUBE_F)
+    # a single list under another name is the corners, as in ASCII files
+    face = ("face", [("vidx", ("uchar", "int"))], [[q] for q in CUBE_F])
+    p = write(tmp_path, "n.ply", ply([("vertex", XYZ, CUBE_V), face], order))
+    assert triangles(*read_mesh_file(p)) == fans(CUBE_V, CUBE_F)
+    face = ("face", [("a", ("uchar", "int")), ("b", ("uchar", "int"))],
+            [(q, q) for q in CUBE_F])
+    refused(write(tmp_path, "two.ply", ply([("vertex", XYZ, CUBE_V), face], order)),
+            r"two\.ply': the PLY face element must have one list property of "
+            r"vertex indices; got list properties \['a', 'b'\]")
+
+
+@pytest.mark.parametrize("order", ["<", ">"])
+def test_binary_bunny_loads_as_its_ascii_file(meshes_dir, tmp_path, order):
+    v, f = read_mesh_file(meshes_dir / "bun_zipper_res2.ply")  # ASCII, by trimesh
+    v32 = v.astype(np.float32)
+    props = [*XYZ, ("confidence", "float"), ("intensity", "float")]
+    records = [(*p, 0.5, 0.25) for p in v32.tolist()]
+    rng = np.random.default_rng(3)
+    for extra in (False, True):  # triangles alike; or beside lists of any length
+        fprops = [("vertex_indices", ("uchar", "int"))]
+        frecs = [[t] for t in f.tolist()]
+        if extra:
+            fprops.append(("texcoord", ("uchar", "float")))
+            frecs = [[t, [0.0] * int(k)] for t, k in zip(
+                f.tolist(), rng.integers(0, 7, len(f)), strict=True)]
+        p = write(tmp_path, "b.ply", ply([("vertex", props, records),
+                                          ("face", fprops, frecs)], order))
+        vb, fb = read_mesh_file(p)
+        assert np.array_equal(vb, v32.astype(np.float64)) and np.array_equal(fb, f)
+
+
+@pytest.mark.parametrize("order", ["a", "<"])
+def test_face_texture_coordinates_are_not_vertex_indices(tmp_path, order):
+    # MeshLab writes a float 'texcoord' list beside the corners: it was refused
+    # as if it held vertex indices
+    tris = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
+    face = ("face", [("vertex_indices", ("uchar", "int")),
+                     ("texcoord", ("uchar", "float"))],
+            [(t, [0.0, 0.5, 1.0, 0.5, 0.25, 0.75]) for t in tris])
+    p = write(tmp_path, "t.ply", ply([("vertex", XYZ, [*CUBE_V[:3], (0, 0, 10)]),
+                                      face], order))
+    m = vs.load_mesh(p)
+    assert m.n_faces == 4 and m.is_watertight
