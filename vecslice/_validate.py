@@ -13,12 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice.errors import (
-    InputTypeError,
-    InputValueError,
-    LayoutError,
-    SettingsError,
-)
+from vecslice.errors import InputTypeError, InputValueError, LayoutError, SettingsError
 from vecslice.units import COORD_LIMIT
 
 __all__ = [
