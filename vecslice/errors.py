@@ -21,7 +21,32 @@ __all__ = [
 ]
 
 
-class VecsliceError(Exception):
+def printable(text: str) -> str:
+    r"""``text`` with lone surrogates written as backslash escapes.
+
+    A file name that is not valid UTF-8 (``caf\xe9.stl`` in Latin-1) reaches
+    Python with surrogates (``'caf\udce9.stl'``), which no strict encoder
+    accepts: printing a message that quotes it raises UnicodeEncodeError. Here
+    its bytes are shown as the command line shows them, ``caf\xe9.stl``.
+    """
+    try:
+        raw = text.encode("utf-8", "surrogateescape")
+        return raw.decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:  # a surrogate that no file name's byte gives
+        return text.encode("utf-8", "backslashreplace").decode("utf-8")
+
+
+class _Printable(Exception):
+    """An exception whose text arguments go through :func:`printable`.
+
+    Every message can be printed, whatever file name it quotes.
+    """
+
+    def __init__(self, *args: object) -> None:
+        super().__init__(*(printable(a) if isinstance(a, str) else a for a in args))
+
+
+class VecsliceError(_Printable):
     """Base class for every vecslice error."""
 
 
@@ -65,5 +90,5 @@ class MissingDependencyError(VecsliceError, ModuleNotFoundError):
     """An optional dependency is not installed; the message names the extra."""
 
 
-class VecsliceWarning(UserWarning):
+class VecsliceWarning(_Printable, UserWarning):
     """Base class for every vecslice warning."""
