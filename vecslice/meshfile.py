@@ -3,9 +3,8 @@
 :func:`read_mesh_file` checks the path, dispatches on the suffix and turns every
 failure into a :class:`~vecslice.errors.MeshFileError` that names the file.
 STL and OBJ are parsed here (bytes and regular expressions, so no text encoding
-is guessed), 3MF by :mod:`vecslice.threemf`, binary PLY by :mod:`vecslice.plyoff`,
-ASCII PLY and OFF by trimesh from the file's bytes once :mod:`vecslice.plyoff`
-checked them (no side files such as textures are opened). Counts a file
+is guessed), 3MF by :mod:`vecslice.threemf`, PLY and OFF by :mod:`vecslice.plyoff`
+(no side files such as textures are opened). Counts a file
 announces are checked against its size and :data:`MAX_TRIANGLES` before memory is
 spent on them. :func:`trimesh_arrays` takes the arrays out of a
 ``trimesh.Trimesh`` or ``trimesh.Scene``. trimesh is imported only when it is
@@ -16,7 +15,6 @@ from __future__ import annotations
 
 import contextlib
 import errno
-import io
 import logging
 import os
 import re
@@ -35,10 +33,10 @@ from numpy.typing import NDArray
 
 from vecslice.errors import InputValueError, MeshFileError, VecsliceError
 from vecslice.plyoff import (
-    _off_header,
-    _ply_header,
     _ply_parse,
     fan_triangles,
+    read_off,
+    read_ply_ascii,
     read_ply_binary,
 )
 
@@ -419,29 +417,16 @@ def _read_obj(path: Path, size: int) -> Arrays:
     return v, fan_triangles(counts, res)
 
 
-def _trimesh_load(ext: str, data: bytes) -> Arrays:
-    import trimesh
-
-    # from bytes: trimesh opens no side files (textures, materials)
-    loaded = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
-    arrays = trimesh_arrays(loaded)
-    if arrays is None:  # a point cloud or a path
-        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
-    v, f, _ = arrays
-    return v, np.asarray(f, dtype=np.int64).reshape(-1, 3)
-
-
 def _read_off(path: Path, size: int) -> Arrays:
-    return _trimesh_load("off", _off_header(path, path.read_bytes()))
+    return read_off(path, path.read_bytes())
 
 
 def _read_ply(path: Path, size: int) -> Arrays:
-    """PLY: binary bodies are read here, ASCII ones by trimesh once checked."""
     data = path.read_bytes()
     header = _ply_parse(path, data)
     if header.binary:
         return read_ply_binary(path, data, header)
-    return _trimesh_load("ply", _ply_header(path, data, header))
+    return read_ply_ascii(path, data, header)
 
 
 def _read_3mf(path: Path, size: int) -> Arrays:

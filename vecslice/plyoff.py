@@ -1,17 +1,19 @@
-"""PLY and OFF files: headers checked against the file, binary PLY read here.
+"""PLY and OFF files, read here: headers checked against the file, then the body.
 
 A header's counts are checked against the file's size, and an ASCII body row by
 row against them (rows, values per row, list lengths), so a truncated or lying
-file is refused instead of loading as part of a mesh; trimesh then parses ASCII
-PLY and OFF. A binary PLY body is walked record by record through its list
-counts and read here: trimesh reads every list with the length of the first
-one, which loads faces of mixed corner counts wrong or not at all. Used by
-:mod:`vecslice.meshfile`, whose limits and messages these checks share.
+file is refused instead of loading as part of a mesh; the numbers those checks
+parsed are then the mesh. A binary PLY body is walked record by record through
+its list counts. Faces of any corner count load as triangle fans. (trimesh read
+these once: it reads every binary list with the first one's length, and splits
+ASCII rows at characters that are not line ends, so some files loaded wrong.)
+Used by :mod:`vecslice.meshfile`, whose limits and messages these checks share.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
@@ -71,13 +73,17 @@ def _body_numbers(path: Path, body: bytes, n: int) -> NDArray[np.float64]:
 
 
 def _check_rows(path: Path, body: bytes, first_line: int, fmt: str,
-                elements: list[tuple[str, int, list[bool], list[bool]]]) -> None:
+                elements: list[tuple[str, int, list[bool], list[bool]]]
+                ) -> tuple[NDArray[np.float64], list[list[NDArray[np.int64]]]]:
     """Check an ASCII body row by row against the elements its header announces.
 
     ``elements``: (name, count, per property whether it is a list, and whether
     it lists a polygon's corners). Every element is one line; a list property takes its
     length and that many values. Refuses a truncated or padded body, a row with
     too few or too many values and a polygon with fewer than 3 corners.
+
+    Returns the body's numbers and, per element and property, where each
+    record's value (a list's length) is among them.
     """
     per_row, line = _rows(body)
     announced = sum(e[1] for e in elements)
@@ -89,12 +95,14 @@ def _check_rows(path: Path, body: bytes, first_line: int, fmt: str,
             "numbers follow it")
     vals = _body_numbers(path, body, int(per_row.sum()))
     begin = np.cumsum(per_row) - per_row
-    row0 = 0
+    row0, where = 0, []
     for name, count, props, polygon_props in elements:
         rows = slice(row0, row0 + count)
         pos, end = begin[rows].copy(), begin[rows] + per_row[rows]
         short = np.zeros(count, dtype=bool)
+        where.append([])
         for is_list, polygons in zip(props, polygon_props, strict=True):
+            where[-1].append(pos)
             if is_list:
                 n = vals[np.minimum(pos, vals.shape[0] - 1)]
                 short |= pos >= end
@@ -119,6 +127,7 @@ def _check_rows(path: Path, body: bytes, first_line: int, fmt: str,
                 f"{int(per_row[row0 + k])} values; its header's properties need "
                 f"{int(pos[k] - begin[row0 + k])}")
         row0 += count
+    return vals, where
 
 
 @dataclass
@@ -231,24 +240,83 @@ def _the_corners(path: Path, h: _Header) -> str:
     return h.corners
 
 
-def _ply_header(path: Path, data: bytes, h: _Header) -> bytes:
-    """Check an ASCII PLY body against its header; returns the bytes to parse.
+def read_ply_ascii(path: Path, data: bytes, h: _Header) -> Arrays:
+    """Vertices (x, y, z) and triangle fans of the faces of an ASCII PLY file.
 
-    The body is checked row by row against the header (:func:`_check_rows`). A
-    face element with one list property under another name than
-    ``vertex_indices``/``vertex_index`` gets that name, so it loads.
+    The body is checked row by row against the header (:func:`_check_rows`); a
+    row is a line, whatever blanks it holds, and blank lines are skipped. An
+    element without properties holds nothing (its records are empty lines).
+    Values are read as their property's type (a ``float`` is rounded to
+    float32, as a binary file stores it); a vertex index must be an integer.
     """
     face = h.face
-    _check_rows(path, data[h.end:], h.lines, "PLY", [
+    kept = [e for e in h.elements if e.props or e is face]
+    vals, where = _check_rows(path, data[h.end:], h.lines, "PLY", [
         (e.name, e.count, [c is not None for _, c, _ in e.props],
          [e is face and n == h.corners for n, _, _ in e.props])  # a face's corners
-        for e in h.elements])
-    if face is None or face.count == 0 or h.corners in _PLY_FACE_NAMES:
-        return data
-    old = _the_corners(path, h).encode()
-    header = re.sub(rb"(property[ \t]+list[ \t]+\S+[ \t]+\S+[ \t]+)" + re.escape(old)
-                    + rb"([ \t]*\r?\n)", rb"\1vertex_indices\2", data[: h.end])
-    return header + data[h.end:]
+        for e in kept])
+    starts = {id(e): at for e, at in zip(kept, where, strict=True)}
+
+    def get(el: _Element, name: str) -> tuple[NDArray[Any], NDArray[np.int64]]:
+        j = next(i for i, p in enumerate(el.props) if p[0] == name)
+        _, count, value = el.props[j]
+        at = starts[id(el)][j]
+        if count is None:
+            return vals[at].astype(_PLY_TYPES[value]), np.empty(0, np.int64)
+        n = vals[at].astype(np.int64)
+        items = vals[_list_items(at + 1, n, 1)]
+        _integers(path, "PLY face", items, n)
+        return items.astype(np.int64), n
+
+    return _assemble(path, h, get)
+
+
+def _list_items(first: NDArray[np.int64], n: NDArray[np.int64],
+                size: int) -> NDArray[np.int64]:
+    """Where list items are: ``n[k]`` items from ``first[k]``, ``size`` apart."""
+    start = first - (np.cumsum(n) - n) * size  # minus the earlier lists' items
+    return np.repeat(start, n) + np.arange(int(n.sum()), dtype=np.int64) * size
+
+
+def _integers(path: Path, what: str, items: NDArray[np.float64],
+              n: NDArray[np.int64]) -> None:
+    """Refuse a vertex index that is not an integer (lists of ``n`` items)."""
+    bad = np.flatnonzero(items != np.floor(items))
+    if bad.size:
+        k = int(np.searchsorted(np.cumsum(n), bad[0], side="right"))
+        raise MeshFileError(f"'{path}' is corrupt: {what} {k} has vertex index "
+                            f"{items[bad[0]]:g}; indices are integers")
+
+
+def _assemble(path: Path, h: _Header, get: Callable[
+        [_Element, str], tuple[NDArray[Any], NDArray[np.int64]]]) -> Arrays:
+    """Vertices and triangle fans of a PLY file.
+
+    ``get(element, property)`` gives a property's values (lists in a row) and
+    list lengths.
+    """
+    v, f = np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
+    for el in h.elements:
+        if el.name == "vertex" and el.count and not v.shape[0]:
+            names = [p[0] for p in el.props if p[1] is None]
+            missing = [a for a in "xyz" if a not in names]
+            if missing:
+                raise MeshFileError(f"'{path}' is corrupt: the PLY vertex element "
+                                    f"has no {' or '.join(missing)} property")
+            v = np.stack([get(el, a)[0].astype(np.float64) for a in "xyz"], axis=1)
+        elif el is h.face and el.count:
+            idx, counts = get(el, _the_corners(path, h))
+            f = _fans(path, counts, idx)
+    return v, f
+
+
+def _fans(path: Path, counts: NDArray[np.int64], corners: NDArray[Any]) -> NDArray[
+        np.int64]:
+    """:func:`fan_triangles`, once their number is checked against the limit."""
+    n_tri = int(counts.sum()) - 2 * counts.shape[0]
+    if n_tri > _mf().MAX_TRIANGLES:
+        raise _mf()._too_many(path, n_tri)
+    return fan_triangles(counts, corners.astype(np.int64))
 
 
 # --------------------------------------------------------------------------
@@ -266,32 +334,16 @@ def read_ply_binary(path: Path, data: bytes, h: _Header) -> Arrays:
     """
     order = _PLY_ORDER[h.fmt]
     corners = _the_corners(path, h) if h.face is not None and h.face.count else None
-    pos, walked = h.end, []
+    pos, records = h.end, {}
     for el in h.elements:
         least = {corners: 3} if el is h.face else {}
-        records, pos = _walk(path, data, pos, el, order, least)
-        walked.append(records)
+        records[id(el)], pos = _walk(path, data, pos, el, order, least)
     if pos != len(data):
         raise MeshFileError(
             f"'{path}' is corrupt: {len(data) - pos:,} bytes follow the elements its "
             "PLY header announces")
-    v, f = np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
-    for el, records in zip(h.elements, walked, strict=True):
-        if el.name == "vertex" and el.count and not v.shape[0]:
-            names = [p[0] for p in el.props if p[1] is None]
-            missing = [a for a in "xyz" if a not in names]
-            if missing:
-                raise MeshFileError(f"'{path}' is corrupt: the PLY vertex element "
-                                    f"has no {' or '.join(missing)} property")
-            v = np.stack([_values(data, records, el, order, a)[0].astype(np.float64)
-                          for a in "xyz"], axis=1)
-        elif el is h.face and corners is not None:
-            idx, counts = _values(data, records, el, order, corners)
-            n_tri = int(counts.sum()) - 2 * el.count
-            if n_tri > _mf().MAX_TRIANGLES:
-                raise _mf()._too_many(path, n_tri)
-            f = fan_triangles(counts, idx.astype(np.int64))
-    return v, f
+    return _assemble(path, h, lambda el, name: _values(data, records[id(el)], el,
+                                                       order, name))
 
 
 def _widths(el: _Element, least: dict[str | None, int]) -> NDArray[np.int64]:
@@ -411,9 +463,7 @@ def _values(data: bytes, rec: _Records, el: _Element, order: str,
     if count is None:
         return _at(data, ats, vtype), np.empty(0, int)
     n = _at(data, ats, order + _PLY_TYPES[count]).astype(np.int64)
-    first = ats + _PLY_SIZES[count] - (np.cumsum(n) - n) * size  # minus earlier items
-    items = np.repeat(first, n) + np.arange(int(n.sum()), dtype=np.int64) * size
-    return _at(data, items, vtype), n
+    return _at(data, _list_items(ats + _PLY_SIZES[count], n, size), vtype), n
 
 
 def fan_triangles(counts: NDArray[np.int64], corners: NDArray[np.int64]) -> NDArray[
@@ -439,13 +489,14 @@ _OFF_COUNTS = re.compile(
     rb"\s*[A-Z]*OFF\s+(\d+)[ \t\r]+(\d+)(?:[ \t\r]+\d+)?[ \t\r]*(?:\n|\Z)")
 
 
-def _off_header(path: Path, data: bytes) -> bytes:
-    """Refuse an OFF file whose body does not hold what its header announces.
+def read_off(path: Path, data: bytes) -> Arrays:
+    """Vertices and triangle fans of the faces of an OFF file.
 
     Comments (``#`` to the end of the line) may stand anywhere, also before the
-    ``OFF`` line. Every vertex line must hold at least 3 numbers and every face
-    line a corner count of at least 3 and that many indices (colours may
-    follow); the lines must be as many as announced.
+    ``OFF`` line. Every vertex line must hold at least 3 numbers (x, y, z; more,
+    such as colours, are ignored) and every face line a corner count of at
+    least 3 and that many integer indices (colours may follow); the lines must
+    be as many as announced. A line ends at a line feed only.
     """
     text = _OFF_COMMENT.sub(b"", data) if b"#" in data else data
     m = _OFF_COUNTS.match(text)
@@ -484,4 +535,8 @@ def _off_header(path: Path, data: bytes) -> bytes:
             f"'{path}' is corrupt: OFF face {k} has {int(per_row[nv + k])} numbers "
             f"and announces {n[k]:g} corners; a face needs at least 3 corners "
             "and one index per corner")
-    return data
+    counts = n.astype(np.int64)
+    corners = vals[_list_items(begin[nv:] + 1, counts, 1)]
+    _integers(path, "OFF face", corners, counts)
+    v = vals[begin[:nv, None] + np.arange(3)]
+    return v.reshape(-1, 3), _fans(path, counts, corners)

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import vecslice as vs
+from vecslice import meshfile
 
 TRI_STL = (b"solid %s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
            b"vertex 0 1 0\nendloop\nendfacet\nendsolid %s\n")
@@ -66,35 +67,29 @@ def test_garbage_never_leaks_raw_exceptions(tmp_path, no_charset_normalizer, ext
                                  UnboundLocalError("cannot access local variable"),
                                  RuntimeError("boom"), RecursionError("deep")])
 def test_any_parser_failure_becomes_mesh_file_error(tmp_path, monkeypatch, exc):
-    import trimesh
-
     def fail(*a, **k):
         raise exc
 
-    monkeypatch.setattr(trimesh, "load", fail)
+    monkeypatch.setattr(meshfile, "read_ply_ascii", fail)
     p = write(tmp_path, "a.ply", PLY % ("vertex_indices", "3 0 1 2"))
     err = refused(p, r"cannot read '.*a\.ply' as PLY: " + type(exc).__name__)
     assert err.__cause__ is exc
 
 
 def test_memory_error_becomes_a_clear_mesh_file_error(tmp_path, monkeypatch):
-    import trimesh
-
     def fail(*a, **k):
         raise MemoryError
 
-    monkeypatch.setattr(trimesh, "load", fail)
+    monkeypatch.setattr(meshfile, "read_off", fail)
     p = write(tmp_path, "a.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
     refused(p, r"cannot read '.*a\.off' as OFF: ran out of memory")
 
 
 def test_keyboard_interrupt_is_not_swallowed(tmp_path, monkeypatch):
-    import trimesh
-
     def stop(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(trimesh, "load", stop)
+    monkeypatch.setattr(meshfile, "read_ply_ascii", stop)
     p = write(tmp_path, "a.ply", PLY % ("vertex_indices", "3 0 1 2"))
     with pytest.raises(KeyboardInterrupt):
         vs.load_mesh(p)

@@ -1,6 +1,7 @@
-"""Binary PLY read by vecslice.plyoff: every element walked through its list counts,
-faces of mixed corner counts loaded as fans, lying counts refused (audit s24 D1).
-Every file is generated here."""
+"""PLY and OFF read by vecslice.plyoff. Binary PLY: every element walked through
+its list counts, faces of mixed corner counts loaded as fans, lying counts refused
+(audit s24 D1). ASCII PLY and OFF: the numbers the row checks parsed are the mesh,
+as trimesh read them from clean files. Every file is generated here."""
 
 import struct
 
@@ -183,7 +184,7 @@ def test_other_properties_and_elements_are_walked(tmp_path, order):
 
 @pytest.mark.parametrize("order", ["<", ">"])
 def test_binary_bunny_loads_as_its_ascii_file(meshes_dir, tmp_path, order):
-    v, f = read_mesh_file(meshes_dir / "bun_zipper_res2.ply")  # ASCII, by trimesh
+    v, f = read_mesh_file(meshes_dir / "bun_zipper_res2.ply")  # ASCII
     v32 = v.astype(np.float32)
     props = [*XYZ, ("confidence", "float"), ("intensity", "float")]
     records = [(*p, 0.5, 0.25) for p in v32.tolist()]
@@ -213,3 +214,93 @@ def test_face_texture_coordinates_are_not_vertex_indices(tmp_path, order):
                                       face], order))
     m = vs.load_mesh(p)
     assert m.n_faces == 4 and m.is_watertight
+
+
+# ---------------------------------------------------------------------------
+# ASCII PLY and OFF, read here since session 25 (trimesh read them before)
+# ---------------------------------------------------------------------------
+
+
+def trimesh_read(path):
+    import trimesh
+
+    tm = trimesh.load(path, process=False)
+    return np.asarray(tm.vertices, np.float64), np.asarray(tm.faces, np.int64)
+
+
+def off_text(v, f, extra=""):
+    rows = [f"{x!r} {y!r} {z!r}{extra}" for x, y, z in v]
+    rows += [" ".join(map(str, [len(p), *p])) + extra for p in f]
+    return f"OFF\n{len(v)} {len(f)} 0\n" + "\n".join(rows) + "\n"
+
+
+def test_ascii_ply_and_off_load_as_trimesh_loads_clean_files(meshes_dir, tmp_path):
+    """Real and generated clean files: the arrays trimesh gives, value for value
+    (float properties rounded to float32 as trimesh does)."""
+    bunny = meshes_dir / "bun_zipper_res2.ply"
+    for path in [bunny]:
+        v, f = read_mesh_file(path)
+        tv, tf = trimesh_read(path)
+        assert np.array_equal(v, tv) and np.array_equal(f, tf)
+    rng = np.random.default_rng(25)
+    for trial in range(6):
+        v = rng.uniform(-100, 100, (40, 3)).round(trial)  # 0 to 5 decimals
+        f = rng.integers(0, 40, (60, 3))
+        for name, data in [("r.ply", mesh_ply(v.tolist(), f.tolist(), "a")),
+                           ("r.off", off_text(v.tolist(), f.tolist()).encode())]:
+            path = write(tmp_path, name, data)
+            got, want = read_mesh_file(path), trimesh_read(path)
+            assert np.array_equal(got[0], want[0]), name
+            assert np.array_equal(got[1], want[1]), name
+    p = write(tmp_path, "f.ply", mesh_ply([(0.1, 0.2, 0.3), (1, 0, 0), (0, 1, 0)],
+                                          [[0, 1, 2]], "a"))
+    assert read_mesh_file(p)[0][0].tolist() == np.float32([0.1, 0.2, 0.3]).tolist()
+
+
+@pytest.mark.parametrize("blank", [b"\x0c", b"\x0b", b"\n"])
+def test_ascii_rows_are_lines_whatever_blanks_they_hold(tmp_path, blank):
+    """A form feed or vertical tab inside a row split it for trimesh ("holds no
+    triangles", or other triangles); a blank line between rows raised trimesh's
+    IndexError or UnboundLocalError."""
+    v = [*CUBE_V[:3], (0, 0, 10)]
+    tris = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
+    clean = mesh_ply(v, tris, "a")
+    head, body = clean.split(b"end_header\n")
+    rows = body.split(b"\n")
+    rows[5] = rows[5].replace(b" ", b" " + blank if blank != b"\n" else b" ", 1)
+    if blank == b"\n":
+        rows.insert(5, b"")  # a blank line among the faces
+        rows.insert(2, b"  \t")
+    path = write(tmp_path, "b.ply", head + b"end_header\n" + b"\n".join(rows))
+    assert triangles(*read_mesh_file(path)) == triangles(v, tris)
+    off = off_text(v, tris).encode().replace(b"3 0 1 3", b"3 0" + blank.replace(
+        b"\n", b" ") + b"1 3").replace(b"\n3 0 2 1", b"\n\n3 0 2 1")
+    path = write(tmp_path, "b.off", off)
+    assert triangles(*read_mesh_file(path)) == triangles(v, tris)
+
+
+def test_an_element_without_properties_holds_nothing(tmp_path):
+    """Its records are empty lines; trimesh raised UnboundLocalError."""
+    v = [*CUBE_V[:3], (0, 0, 10)]
+    tris = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
+    for order in ("a", "<"):
+        data = ply([("vertex", XYZ, v), ("note", [], [(), ()]),
+                    ("face", [("vertex_indices", ("uchar", "int"))],
+                     [[t] for t in tris]), ("end", [], [()] * 5)], order)
+        assert b"element note 2\n" in data and b"element end 5\n" in data
+        path = write(tmp_path, "e.ply", data)
+        assert triangles(*read_mesh_file(path)) == triangles(v, tris)
+
+
+def test_a_vertex_index_that_is_not_an_integer_is_refused(tmp_path):
+    """trimesh truncated 1.5 to 1: another triangle, silently."""
+    v = [*CUBE_V[:3], (0, 0, 10)]
+    tris = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
+    data = mesh_ply(v, tris, "a").replace(b"3 0 1 3\n", b"3 0 1.5 3\n")
+    refused(write(tmp_path, "i.ply", data),
+            r"i\.ply' is corrupt: PLY face 1 has vertex index 1\.5; indices are "
+            "integers")
+    off = off_text(v, tris).encode().replace(b"3 0 3 2\n", b"3 0 3 2e-1\n")
+    refused(write(tmp_path, "i.off", off),
+            r"i\.off' is corrupt: OFF face 2 has vertex index 0\.2; indices are "
+            "integers")
