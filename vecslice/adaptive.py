@@ -20,6 +20,7 @@ from vecslice._kernels.adaptive import (
 from vecslice._kernels.adaptive import face_slopes as _face_slopes
 from vecslice._validate import check_int, check_layer_count, check_option
 from vecslice.errors import InputTypeError
+from vecslice.interrupt import keyboard_interrupts
 from vecslice.mesh import Mesh
 from vecslice.ragged import freeze
 from vecslice.settings import SliceSettings
@@ -168,6 +169,7 @@ def _sorted_faces(m: Mesh, dz: int) -> tuple[NDArray[Any], ...]:
     return arrays
 
 
+@keyboard_interrupts
 def adaptive_layer_heights(
     mesh: Any, settings: SliceSettings | None = None, *, frame: Frame = "mesh"
 ) -> Schedule:

@@ -6,17 +6,26 @@ Ctrl-C back for 30 s. :func:`run_interruptible` runs the call in a worker thread
 lets the main thread wait in short, interruptible steps: ``KeyboardInterrupt``
 reaches the caller at once. The kernels release the GIL (``nogil``), so the worker
 costs nothing while it computes.
+
+Without the helper, a Ctrl-C that arrives while a kernel runs in the main thread
+is handled when Python code next runs. That can be inside numba's dispatcher (it
+calls a Python function when it converts some arguments or results), which then
+reports a ``SystemError`` caused by the ``KeyboardInterrupt``.
+:func:`keyboard_interrupts` decorates the public calls so that their callers see
+the ``KeyboardInterrupt`` itself.
 """
 
 from __future__ import annotations
 
+import functools
 import threading
 from collections.abc import Callable
 from typing import Any, TypeVar
 
-__all__ = ["run_interruptible"]
+__all__ = ["keyboard_interrupts", "run_interruptible"]
 
 T = TypeVar("T")
+F = TypeVar("F", bound=Callable[..., Any])
 
 _POLL_S = 0.05
 
@@ -50,8 +59,7 @@ def run_interruptible(fn: Callable[..., T], /, *args: Any, **kwargs: Any) -> T:
     in its (daemon) thread until it returns, using CPU meanwhile, and its result is
     dropped; a command-line program should exit at once instead (``vecslice`` does,
     with status 130). Without this helper, Ctrl-C during a long kernel takes effect
-    only when the kernel returns, and during a first-run compilation it can surface
-    as a ``SystemError`` from inside numba.
+    only when the kernel returns.
 
     Examples
     --------
@@ -76,3 +84,35 @@ def run_interruptible(fn: Callable[..., T], /, *args: Any, **kwargs: Any) -> T:
     if "error" in box:
         raise box["error"]
     return box["value"]
+
+
+def _interrupted(exc: BaseException) -> bool:
+    """Whether a ``KeyboardInterrupt`` is among the causes of ``exc``."""
+    seen: set[int] = set()
+    cause: BaseException | None = exc
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, KeyboardInterrupt):
+            return True
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+    return False
+
+
+def keyboard_interrupts(fn: F) -> F:
+    """Decorate a public call so that Ctrl-C always reaches its caller as such.
+
+    A ``SystemError`` that numba raised for a ``KeyboardInterrupt`` (see the
+    module's docstring) is raised as ``KeyboardInterrupt``; other
+    ``SystemError`` s pass unchanged.
+    """
+
+    @functools.wraps(fn)
+    def call(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return fn(*args, **kwargs)
+        except SystemError as exc:
+            if not _interrupted(exc):
+                raise
+            raise KeyboardInterrupt from exc
+
+    return call  # type: ignore[return-value]

@@ -10,6 +10,7 @@ from numpy.typing import NDArray
 from vecslice._validate import check_int, check_layer_count
 from vecslice.adaptive import adaptive_layer_heights
 from vecslice.errors import InputTypeError, InputValueError
+from vecslice.interrupt import keyboard_interrupts
 from vecslice.mesh import Mesh
 from vecslice.settings import SliceSettings
 from vecslice.units import COORD_LIMIT
@@ -93,6 +94,7 @@ def layer_schedule(
     return z, print_z, thickness
 
 
+@keyboard_interrupts
 def layer_heights(
     mesh: Any, settings: SliceSettings | None = None
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:

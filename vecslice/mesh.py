@@ -25,6 +25,7 @@ from vecslice._validate import (
     check_option,
 )
 from vecslice.errors import InputTypeError, InputValueError, MeshFileError
+from vecslice.interrupt import keyboard_interrupts
 from vecslice.meshcheck import (
     LoadInfo,
     MeshReport,
@@ -144,13 +145,13 @@ class Mesh:
         *,
         load_info: LoadInfo | None = None,
     ) -> None:
+        from vecslice.ragged import adopt
+
         v = _as_vertices(vertices)
         f = _as_faces(faces, v.shape[0])
-        if v is vertices or not v.flags.owndata:
-            v = v.copy()
-        if f is faces or not f.flags.owndata:
-            f = f.copy()
-        self._set(v, f, load_info)
+        # copied unless numpy made them afresh: never the caller's memory (an
+        # object's __array__ may hand out its own array), never frozen in place
+        self._set(adopt(v, vertices), adopt(f, faces), load_info)
 
     def _set(
         self, v: NDArray[np.int64], f: NDArray[np.int64], info: LoadInfo | None
@@ -240,6 +241,7 @@ class Mesh:
         return m
 
     @classmethod
+    @keyboard_interrupts
     def from_arrays(
         cls,
         vertices_um: ArrayLike,
@@ -409,6 +411,7 @@ class Mesh:
         object.__setattr__(out, "_zcorners", (zmin + d[2], zmax + d[2]))
         return out
 
+    @keyboard_interrupts
     def repaired(self) -> Mesh:
         """Remove duplicate faces; orient every shell consistently and the right way.
 
@@ -500,6 +503,7 @@ class Mesh:
         return f"Mesh({self.n_vertices} vertices, {self.n_faces} faces{dims})"
 
 
+@keyboard_interrupts
 def check_mesh(mesh: Any) -> MeshReport:
     """Count the defects of a mesh that matter for slicing.
 
@@ -581,6 +585,7 @@ def _check_coords(v: NDArray[np.float64], s: float, source: str) -> NDArray[np.f
     return mm
 
 
+@keyboard_interrupts
 def load_mesh(
     path_or_trimesh: str | os.PathLike[str] | trimesh.Trimesh | trimesh.Scene,
     *,

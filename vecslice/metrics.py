@@ -24,9 +24,10 @@ from vecslice._kernels.metrics import compare_range
 from vecslice._kernels.simplify import ring_perimeters
 from vecslice._threads import chunk_bounds, run_chunks
 from vecslice.errors import InputTypeError, InputValueError
+from vecslice.interrupt import keyboard_interrupts
 from vecslice.moves import MoveStats, _check_number, move_stats
 from vecslice.paths import LayerPaths
-from vecslice.ragged import freeze
+from vecslice.ragged import adopt, freeze
 from vecslice.settings import SliceSettings
 from vecslice.staircase import VolumeStats, volume_error
 from vecslice.storage import SlicedModel
@@ -103,7 +104,8 @@ class ContourErrors:
         # the maxima and sums computed from it (see ragged.freeze)
         for name in ("raw_to_simplified_um", "simplified_to_raw_um", "xor_area_um2",
                      "linear", "ring_layer", "raw_area_um2"):
-            object.__setattr__(self, name, freeze(np.asarray(getattr(self, name))))
+            given = getattr(self, name)
+            object.__setattr__(self, name, adopt(np.asarray(given), given))
 
     @property
     def n_layers(self) -> int:
@@ -190,6 +192,7 @@ def _compare_rings(
     return d1, d2, area, linear
 
 
+@keyboard_interrupts
 def contour_errors(raw: LayerPaths, simplified: LayerPaths) -> ContourErrors:
     """Measure simplified rings against the raw rings they came from, ring by ring.
 
@@ -281,13 +284,14 @@ def _errors_of(raw: LayerPaths,
                raw_area_um2: NDArray[np.float64] | None = None) -> ContourErrors:
     """:class:`ContourErrors` of ``raw`` from ``compare_rings``' four arrays."""
     d1, d2, area, linear = measured
-    return ContourErrors(
-        raw_to_simplified_um=d1,
-        simplified_to_raw_um=d2,
-        xor_area_um2=area,
-        linear=linear,
-        ring_layer=raw.ring_layer(),
-        raw_area_um2=_raw_area_um2(raw) if raw_area_um2 is None else raw_area_um2,
+    return ContourErrors(  # fresh arrays, handed over (frozen: not copied)
+        raw_to_simplified_um=freeze(d1),
+        simplified_to_raw_um=freeze(d2),
+        xor_area_um2=freeze(area),
+        linear=freeze(linear),
+        ring_layer=freeze(raw.ring_layer()),
+        raw_area_um2=freeze(_raw_area_um2(raw) if raw_area_um2 is None
+                            else raw_area_um2),
     )
 
 
@@ -300,6 +304,7 @@ def _raw_area_um2(raw: LayerPaths) -> NDArray[np.float64]:
                        minlength=raw.n_layers) / 2
 
 
+@keyboard_interrupts
 def simplification_errors(
     raw: LayerPaths, settings: SliceSettings | None = None
 ) -> tuple[ContourErrors, LayerPaths]:
@@ -348,6 +353,7 @@ def simplification_errors(
     return contour_errors(raw, cleaned), cleaned
 
 
+@keyboard_interrupts
 def layer_xor_areas(a: LayerPaths, b: LayerPaths) -> NDArray[np.float64]:
     """Area (µm²) of the symmetric difference of ``a`` and ``b``, per layer.
 
@@ -409,6 +415,7 @@ class ResolutionStats:
     relative_error: float
 
 
+@keyboard_interrupts
 def resolution_stats(
     model: SlicedModel, reference: LayerPaths | SlicedModel, *,
     speed_mm_s: float = 60,

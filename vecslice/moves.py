@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice.errors import InputTypeError, SettingsError
+from vecslice.interrupt import keyboard_interrupts
 from vecslice.paths import LayerPaths, Paths
 from vecslice.storage import SlicedModel
 
@@ -90,6 +91,7 @@ def _edge_d2(coords: NDArray[np.int64], offsets: NDArray[np.int64]) -> NDArray[A
     return d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
 
 
+@keyboard_interrupts
 def move_stats(
     source: SlicedModel | LayerPaths | Paths,
     *,

@@ -20,6 +20,7 @@ from vecslice._kernels.rings import ring_area2
 from vecslice._validate import check_bool, check_option
 from vecslice.errors import InputTypeError
 from vecslice.interop import to_shapely as to_shapely  # moved; re-exported
+from vecslice.interrupt import keyboard_interrupts
 from vecslice.layerparts import LayerParts as LayerParts  # moved; re-exported
 from vecslice.paths import LayerPaths
 from vecslice.ragged import offsets_from_lengths as _offsets
@@ -370,6 +371,7 @@ def _label_parts(
     return pid, np.unique(layer[holes[n_cand != 1]])
 
 
+@keyboard_interrupts
 def make_parts(
     loops: LayerPaths, *, union_overlapping_volumes: bool = True
 ) -> LayerParts:

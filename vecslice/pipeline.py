@@ -18,6 +18,7 @@ from vecslice._kernels.rings import take_rings
 from vecslice._kernels.simplify import remove_degenerate_vertices, ring_perimeters
 from vecslice._validate import check_bool
 from vecslice.errors import InputTypeError
+from vecslice.interrupt import keyboard_interrupts
 from vecslice.layers import layer_heights
 from vecslice.parts import _check_loops, apply_slicing_tolerance, make_parts
 from vecslice.paths import LayerPaths
@@ -113,6 +114,7 @@ def _clean_closed(
     return coords, full
 
 
+@keyboard_interrupts
 def clean_loops(loops: LayerPaths, settings: SliceSettings | None = None) -> LayerPaths:
     """CuraEngine's per-layer clean-up of raw loops, for all layers at once.
 
@@ -207,6 +209,7 @@ _STAGES = [
 ]
 
 
+@keyboard_interrupts
 def slice_mesh(
     mesh: Any,
     settings: SliceSettings | None = None,

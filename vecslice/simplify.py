@@ -21,6 +21,7 @@ from vecslice._kernels.simplify import simplify_range
 from vecslice._threads import chunk_bounds, run_chunks
 from vecslice._validate import as_coords, as_int_array, check_int
 from vecslice.errors import InputTypeError, InputValueError, LayoutError
+from vecslice.interrupt import keyboard_interrupts
 from vecslice.paths import Paths
 from vecslice.units import COORD_LIMIT
 
@@ -145,6 +146,7 @@ def simplify(
     paths: Paths | ArrayLike, *, max_resolution: int = ..., max_deviation: int = ...,
     max_area_deviation: int = ..., closed: bool = ..., widths: ArrayLike,
 ) -> tuple[Paths | NDArray[np.int64], NDArray[np.int64]]: ...
+@keyboard_interrupts
 def simplify(
     paths: Paths | ArrayLike,
     *,

@@ -18,6 +18,7 @@ from vecslice._validate import (
     check_layer_count,
 )
 from vecslice.errors import InputTypeError
+from vecslice.interrupt import keyboard_interrupts
 from vecslice.paths import LayerPaths
 from vecslice.settings import MAX_LAYERS
 from vecslice.stitch import stitch as stitch_chains
@@ -67,6 +68,7 @@ def _check_slice_z(slice_z: ArrayLike) -> NDArray[np.int64]:
     return z
 
 
+@keyboard_interrupts
 def slice_contours(
     mesh: Any, slice_z: ArrayLike, *, stitch: bool = True, max_layers: int = MAX_LAYERS
 ) -> LayerPaths:

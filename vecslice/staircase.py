@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice.errors import InputTypeError
+from vecslice.interrupt import keyboard_interrupts
 from vecslice.storage import SlicedModel
 
 __all__ = ["VolumeStats", "volume_error"]
@@ -124,6 +125,7 @@ def _volume_below(vertices: NDArray[np.int64], faces: NDArray[np.int64],
     return total
 
 
+@keyboard_interrupts
 def volume_error(
     model: SlicedModel, mesh: Any, *, _solid_of_mesh: _Solid | None = None
 ) -> VolumeStats:

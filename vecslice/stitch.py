@@ -10,6 +10,7 @@ from numpy.typing import NDArray
 from vecslice._kernels.stitch import stitch_chains
 from vecslice._validate import check_int
 from vecslice.errors import InputTypeError
+from vecslice.interrupt import keyboard_interrupts
 from vecslice.paths import LayerPaths
 from vecslice.ragged import freeze, ragged_take
 
@@ -52,6 +53,7 @@ def _merge_layers(a: LayerPaths, b: LayerPaths) -> LayerPaths:
     )
 
 
+@keyboard_interrupts
 def stitch(
     loops: LayerPaths, *, max_gap_in_order: int = 20, max_gap: int = 10_000
 ) -> Stitched:

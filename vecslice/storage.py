@@ -21,6 +21,7 @@ from vecslice.errors import (
     LayoutError,
     StorageFileError,
 )
+from vecslice.interrupt import keyboard_interrupts
 from vecslice.layerparts import Part, PartsLayout, check_part_rings
 from vecslice.npz import (
     MAX_BYTES,
@@ -356,6 +357,7 @@ class SlicedModel(PartsLayout):
         )
 
 
+@keyboard_interrupts
 def load_sliced(
     path: str | os.PathLike[str], *, max_bytes: int = MAX_BYTES
 ) -> SlicedModel:

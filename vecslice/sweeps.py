@@ -30,6 +30,7 @@ from vecslice.errors import (
     SettingsError,
     VecsliceError,
 )
+from vecslice.interrupt import keyboard_interrupts
 from vecslice.settings import SliceSettings
 
 __all__ = ["METRIC_COLUMNS", "XY_SETTINGS", "sweep"]
@@ -571,6 +572,7 @@ def _local_scheduler() -> str:
     return "sync" if layer == "workqueue" else "threads"
 
 
+@keyboard_interrupts
 def sweep(
     meshes: Any,
     grid: Any,

@@ -629,3 +629,32 @@ def test_repair_errors_name_the_file(tmp_path):
                        r"faces left after repair: every face cancels"):
         vs.load_mesh(path)
     assert vs.load_mesh(path, repair=False).n_faces == 2
+
+
+class _Wrapped:
+    """An array-like whose __array__ hands out the array it holds (xarray does)."""
+
+    def __init__(self, a):
+        self.a = a
+
+    def __array__(self, dtype=None, copy=None):
+        return self.a
+
+
+def test_mesh_keeps_no_memory_its_caller_can_write():
+    """Audit s25 api D1: ``Mesh(wrapped(V), wrapped(F))`` kept V and F themselves and
+    froze them in place; writes through the caller's earlier views changed the
+    validated mesh (9x the area), and a face index written afterwards crashed a
+    kernel (SIGSEGV)."""
+    box = trimesh.creation.box((10, 10, 10))
+    V = np.round(np.asarray(box.vertices) * 1000).astype(np.int64)
+    F = np.asarray(box.faces, dtype=np.int64)
+    mesh = vs.Mesh(_Wrapped(V), _Wrapped(F))
+    assert V.flags.writeable and F.flags.writeable
+    assert not np.may_share_memory(mesh.vertices, V)
+    assert not np.may_share_memory(mesh.faces, F)
+    before = vs.slice_contours(mesh, [0]).coords.copy()
+    V[:, :2] *= 3
+    F[0, 2] = 10**6
+    assert np.array_equal(vs.slice_contours(mesh, [0]).coords, before)
+    assert int(mesh.faces.max()) == 7

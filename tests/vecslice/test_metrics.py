@@ -348,3 +348,22 @@ def test_contour_errors_arrays_are_read_only():
         a = getattr(err, name)
         with pytest.raises(ValueError, match="read-only"):
             a[0] = a[0]
+
+
+def test_contour_errors_never_freezes_or_keeps_the_callers_arrays():
+    """Audit s25 api D1: a ContourErrors made from the caller's arrays made them
+    read-only in place and kept them, so a write through an earlier view changed
+    the result."""
+    from vecslice.metrics import ContourErrors
+
+    mine = {name: np.array(v) for name, v in [
+        ("raw_to_simplified_um", [1.0, 2.0]), ("simplified_to_raw_um", [0.0, 0.0]),
+        ("xor_area_um2", [5.0, 5.0]), ("linear", [True, True]),
+        ("ring_layer", [0, 0]), ("raw_area_um2", [100.0])]}
+    err = ContourErrors(**mine)
+    view = mine["raw_to_simplified_um"][:1]
+    view[0] = 999.0  # still writable, and not the result's
+    assert err.raw_to_simplified_um.tolist() == [1.0, 2.0]
+    for name, a in mine.items():
+        assert a.flags.writeable, name
+        assert not np.may_share_memory(getattr(err, name), a), name
