@@ -193,4 +193,14 @@ def layer_heights(
             + (" (the last adaptive layer ends above the model)"
                if settings.adaptive_layers else "") + ": move the mesh down"
         )
+    if print_z.size and int(print_z.max()) >= COORD_LIMIT:
+        # heights above the bed: a model more than 2**30 µm tall (SlicedModel
+        # would refuse them only once everything was sliced)
+        lo, hi = mesh._corner_zrange()
+        k = int(np.argmax(print_z >= COORD_LIMIT))
+        raise InputValueError(
+            f"the layers must print below 2**30 µm (about 1 km) above the bed; got "
+            f"layer {k} at {int(print_z[k])} µm, for a mesh {hi - lo} µm tall "
+            f"(from z = {lo} to {hi} µm)"
+        )
     return z, print_z, thickness

@@ -52,6 +52,13 @@ def _freeze(a: NDArray[np.int64]) -> NDArray[np.int64]:
     return freeze(a)
 
 
+def _check_load_info(value: object) -> None:
+    if value is not None and not isinstance(value, LoadInfo):
+        raise InputTypeError(
+            f"`load_info` must be a vecslice.mesh.LoadInfo or None; got "
+            f"{type(value).__name__} {value!r}")
+
+
 def _as_vertices(value: ArrayLike) -> NDArray[np.int64]:
     a = value if isinstance(value, np.ndarray) else None
     if a is not None and a.dtype.kind == "f" and a.size:
@@ -147,6 +154,7 @@ class Mesh:
     ) -> None:
         from vecslice.ragged import adopt
 
+        _check_load_info(load_info)
         v = _as_vertices(vertices)
         f = _as_faces(faces, v.shape[0])
         # copied unless numpy made them afresh: never the caller's memory (an
@@ -275,7 +283,7 @@ class Mesh:
         ------
         InputTypeError
             If an array is not integer (float vertices get a hint), or ``merge``
-            is not a bool.
+            is not a bool, or ``load_info`` not a LoadInfo.
         InputValueError
             On a wrong shape, a coordinate beyond 2**30 µm, a face index out of
             range, no faces, or only degenerate faces.
@@ -294,6 +302,7 @@ class Mesh:
         ([[0, 1, 2], [0, 1, 2]], 1, 1)
         """
         check_bool(merge, "merge")
+        _check_load_info(load_info)
         v = _as_vertices(vertices_um)
         f = _as_faces(faces, v.shape[0])
         base = load_info if load_info is not None else LoadInfo(

@@ -23,6 +23,7 @@ from vecslice._validate import as_coords, as_int_array, check_int
 from vecslice.errors import InputTypeError, InputValueError, LayoutError
 from vecslice.interrupt import keyboard_interrupts
 from vecslice.paths import Paths
+from vecslice.ragged import RaggedContainer
 from vecslice.units import COORD_LIMIT
 
 __all__ = ["remove_degenerate_vertices", "ring_perimeters", "simplify"]
@@ -225,6 +226,12 @@ def simplify(
         raise InputTypeError(f"`closed` must be a bool; got {closed!r}")
     if isinstance(paths, Paths):
         coords, offsets = paths.coords, paths.ring_offsets
+    elif isinstance(paths, RaggedContainer):  # LayerPaths, SlicedModel
+        raise InputTypeError(
+            "`paths` must be a vecslice.Paths or an (n, 2) integer array; got "
+            f"{type(paths).__name__} (the rings of a LayerPaths `loops`: "
+            "`simplify(loops.paths())`; every layer of a slice, with a "
+            "SliceSettings' thresholds: `vs.clean_loops(loops, settings)`)")
     else:
         coords = as_coords(paths, "paths")
         offsets = np.array([0, coords.shape[0]], dtype=np.int64)

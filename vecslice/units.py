@@ -60,6 +60,16 @@ def to_microns(mm: ArrayLike, *, name: str = "mm") -> NDArray[np.int64]:
     return um.astype(np.int64)
 
 
+def _overflows(value: object) -> bool:
+    try:
+        float(value)  # type: ignore[arg-type]
+    except OverflowError:
+        return True
+    except (TypeError, ValueError):
+        pass
+    return False
+
+
 def _as_float(mm: ArrayLike, name: str) -> NDArray[np.float64]:
     """``mm`` as float64, refusing what is not a number (bools, strings, None)."""
     want = f"`{name}` must be a number or an array of numbers (millimetres)"
@@ -74,6 +84,14 @@ def _as_float(mm: ArrayLike, name: str) -> NDArray[np.float64]:
     if a.dtype.kind == "O":
         try:
             return a.astype(np.float64)
+        except OverflowError:  # a Python int beyond float range (10**400)
+            flat = a.ravel()
+            i = next(k for k, v in enumerate(flat) if _overflows(v))
+            digits = int(int(abs(flat[i])).bit_length() * 0.30103)
+            raise InputValueError(
+                f"`{name}` must be below {COORD_LIMIT / 1000:g} mm in magnitude "
+                f"(2**30 µm); got about 10**{digits} at flat index {i}"
+            ) from None
         except (TypeError, ValueError) as exc:
             raise InputTypeError(
                 f"{want}; got {type(mm).__name__} with a non-number ({exc})"

@@ -132,6 +132,25 @@ def test_a_schedule_beyond_the_coordinate_limit_is_refused_by_name():
         vs.slice_mesh(m, s)
 
 
+def test_a_mesh_whose_layers_would_print_beyond_the_limit_is_refused_first():
+    """Audit s25 api D4: print_z is measured from the mesh's lowest point, so a mesh
+    taller than 2**30 µm (every coordinate valid) sliced fully and was refused only
+    when stored, naming a `print_z` the user never gave."""
+    x = 2**30 - 1
+    m = vs.Mesh.from_arrays([[-x, -x, -x], [x, -x, -x], [-x, x, -x], [x, x, x]],
+                            [[0, 1, 2], [0, 3, 1], [1, 3, 2], [0, 2, 3]])
+    s = vs.SliceSettings(layer_height=2_000_000, initial_layer_height=2_000_000)
+    match = (r"the layers must print below 2\*\*30 µm \(about 1 km\) above the bed; "
+             r"got layer 536 at 1074000000 µm, for a mesh 2147483646 µm tall \(from "
+             r"z = -1073741823 to 1073741823 µm\)")
+    with pytest.raises(vs.InputValueError, match=match):
+        vs.layer_heights(m, s)
+    with pytest.raises(vs.InputValueError, match=match):
+        vs.slice_mesh(m, s)
+    low = vs.Mesh.from_arrays(m.vertices // 4, m.faces)  # a quarter as tall: sliced
+    assert vs.slice_mesh(low, s).n_layers == 268
+
+
 def test_default_settings():
     mesh = vs.Mesh.from_arrays(
         np.array([[0, 0, 0], [1000, 0, 0], [0, 1000, 0], [0, 0, 1000]]),

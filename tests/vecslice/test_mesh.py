@@ -658,3 +658,13 @@ def test_mesh_keeps_no_memory_its_caller_can_write():
     F[0, 2] = 10**6
     assert np.array_equal(vs.slice_contours(mesh, [0]).coords, before)
     assert int(mesh.faces.max()) == 7
+
+
+@pytest.mark.parametrize("make", [vs.Mesh, vs.Mesh.from_arrays])
+def test_load_info_of_another_type_is_refused(make):
+    """Audit s25 api D3: AttributeError at once (from_arrays) or later (repaired,
+    check_mesh)."""
+    with pytest.raises(vs.InputTypeError,
+                       match=r"`load_info` must be a vecslice.mesh.LoadInfo or None; "
+                             r"got int 5"):
+        make([[0, 0, 0], [9, 0, 0], [0, 9, 0]], [[0, 1, 2]], load_info=5)

@@ -266,3 +266,15 @@ def test_a_vertex_moved_beyond_the_coordinate_limit_is_refused():
     out = simplify(vs.Paths(ring // 4, [0, 5]), max_resolution=600,
                    max_deviation=2**30)
     assert np.abs(out.coords).max() < 2**30
+
+
+def test_a_layer_container_gets_a_hint_not_a_dtype_message():
+    """Audit s25 api D3: ``simplify(loops)`` said "integer microns; got dtype
+    object"."""
+    loops = vs.slice_contours(vs.demo_mesh(), [2000])
+    with pytest.raises(vs.InputTypeError,
+                       match=r"`paths` must be a vecslice.Paths or an \(n, 2\) integer "
+                             r"array; got LayerPaths .*simplify\(loops.paths\(\)\).*"
+                             r"vs.clean_loops"):
+        vs.simplify(loops)
+    assert vs.simplify(loops.paths()).n_rings == loops.n_rings

@@ -44,3 +44,12 @@ def test_bad_values_name_the_argument():
     with pytest.raises(InputValueError, match="must be below") as info:
         vs.to_microns(2e6)
     assert "got 2000000.0 mm at flat index 0" in str(info.value)  # no np.float64(…)
+
+
+def test_an_integer_beyond_float_range_is_refused_as_too_large():
+    """Audit s25 api D3: a plain OverflowError escaped (not a VecsliceError)."""
+    for value, at in [(10**400, 0), ([1, -10**5000], 1)]:
+        with pytest.raises(vs.InputValueError,
+                           match=rf"`mm` must be below .* mm in magnitude .*got about "
+                                 rf"10\*\*\d+ at flat index {at}"):
+            vs.to_microns(value)
