@@ -70,10 +70,13 @@ def to_shapely(parts: Any, k: int, *, scale: float = 1e-3) -> Any:
     """
     try:
         import shapely
-    except ImportError:
-        raise ImportError(
-            "shapely is required for to_shapely(); pip install shapely"
-        ) from None
+    except ImportError as exc:
+        from vecslice.errors import MissingDependencyError
+
+        raise MissingDependencyError(
+            "to_shapely needs shapely, which is not installed: "
+            "pip install 'vecslice[shapely]'"
+        ) from exc
     k = check_index(k, parts.layer_offsets.shape[0] - 1, "k", "layer index")
     q0, q1 = (int(x) for x in parts.layer_offsets[k : k + 2])
     part_offsets = parts.part_offsets[q0 : q1 + 1]

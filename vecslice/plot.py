@@ -22,7 +22,7 @@ from typing import IO, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vecslice.svg import SVG_STYLE, layer_index
+from vecslice.svg import SVG_STYLE, check_model, layer_index
 
 __all__ = ["layer", "layer_vertex_counts", "save_layer", "stack", "stats"]
 
@@ -146,6 +146,8 @@ def layer(model: Any, i: int, *, ax: Any = None, raw: Any = None,
     ------
     MissingDependencyError
         If matplotlib is not installed.
+    InputTypeError
+        If ``model`` is not a SlicedModel.
     InputValueError
         If ``i`` is not a layer index, or ``raw`` has another number of layers.
 
@@ -159,6 +161,7 @@ def layer(model: Any, i: int, *, ax: Any = None, raw: Any = None,
     ('x (mm)', 1)
     """
     _matplotlib()
+    check_model(model)
     k = layer_index(model, i)
     ax = _new_axes(ax, _figsize(model))
     _draw_layer(ax, model, k, (0.0, 0.0), fill, 1.0)
@@ -207,10 +210,13 @@ def stack(model: Any, layers: Any = None, *, offset: tuple[float, float] | None 
     ------
     MissingDependencyError
         If matplotlib is not installed.
+    InputTypeError
+        If ``model`` is not a SlicedModel.
     InputValueError
         If an index is not a layer index.
     """
     _matplotlib()
+    check_model(model)
     n = model.n_layers
     if layers is None:
         layers = np.unique(np.linspace(0, n - 1, min(n, 8)).round().astype(int))
@@ -275,8 +281,11 @@ def stats(model: Any, *, axes: Any = None) -> Any:
     ------
     MissingDependencyError
         If matplotlib is not installed.
+    InputTypeError
+        If ``model`` is not a SlicedModel.
     """
     _matplotlib()
+    check_model(model)
     if axes is None:
         from matplotlib.figure import Figure
 

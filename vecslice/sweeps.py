@@ -9,6 +9,7 @@ imported when :func:`sweep` is called, never by ``import vecslice``.
 
 from __future__ import annotations
 
+import importlib
 import math
 import os
 import sys
@@ -27,6 +28,7 @@ from vecslice._validate import check_bool
 from vecslice.errors import (
     InputTypeError,
     InputValueError,
+    MissingDependencyError,
     SettingsError,
     VecsliceError,
 )
@@ -60,14 +62,21 @@ _INT_COLUMNS = ("layers", "raw_vertices", "vertices", "parts", "raw_rings", "rin
 
 
 def _require() -> tuple[Any, Any]:
-    try:
-        import dask
-        import pandas
-    except ImportError as exc:
-        raise ImportError(
-            f"vecslice.sweep needs pandas and dask ({exc.name} is missing); "
-            "install them with: pip install 'vecslice[sweep]'"
-        ) from None
+    missing = []
+    for name in ("pandas", "dask"):
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            missing.append(name)
+    if missing:
+        raise MissingDependencyError(
+            f"vecslice.sweep needs pandas and dask ({' and '.join(missing)} "
+            f"{'is' if len(missing) == 1 else 'are'} not installed): "
+            "pip install 'vecslice[sweep]'"
+        )
+    import dask
+    import pandas
+
     return pandas, dask
 
 

@@ -134,11 +134,9 @@ def viewer_html(model: Any, *, title: str = "vecslice") -> str:
     (True, True)
     """
     from vecslice.errors import InputTypeError
-    from vecslice.storage import SlicedModel
+    from vecslice.svg import check_model
 
-    if not isinstance(model, SlicedModel):
-        raise InputTypeError(f"`model` must be a vecslice.SlicedModel; got "
-                             f"{type(model).__name__}")
+    check_model(model)
     if not isinstance(title, str):
         raise InputTypeError(f"`title` must be a str; got {type(title).__name__}")
     sections = _sections(model)

@@ -141,3 +141,16 @@ def test_missing_matplotlib_names_the_extra(demo, monkeypatch):
     for fn in (plot.stack, plot.stats):
         with pytest.raises(ImportError, match="pip install 'vecslice"):
             fn(demo)
+
+
+@pytest.mark.parametrize("draw", [lambda m: plot.layer(m, 0), lambda m: plot.stack(m),
+                                  plot.stats, lambda m: plot.save_layer(m, 0, "x.png")])
+@pytest.mark.parametrize(("model", "hint"), [("m.npz", r" \(read a saved model with "
+                                                       r"vs.load_sliced\(path\)\)$"),
+                                             (None, "$"), ([1, 2], "$")])
+def test_a_model_of_another_type_is_refused_by_name(draw, model, hint):
+    """Audit s25 docs D3: AttributeError ('str' object has no attribute 'n_layers')."""
+    with pytest.raises(vs.InputTypeError,
+                       match=rf"^`model` must be a vecslice.SlicedModel; got "
+                             rf"{type(model).__name__}{hint}"):
+        draw(model)

@@ -104,3 +104,11 @@ def test_bad_margin(demo):
 def test_layer_index_accepts_numpy_integers(demo):
     assert layer_index(demo, np.int32(-1)) == 147
     assert layer_index(demo, np.int64(2)) == 2
+
+
+def test_a_model_of_another_type_is_refused_by_name(tmp_path):
+    """Audit s25 docs D3: AttributeError ('str' object has no attribute 'n_layers')."""
+    with pytest.raises(vs.InputTypeError,
+                       match=r"`model` must be a vecslice.SlicedModel; got PosixPath "
+                             r"\(read a saved model with vs.load_sliced\(path\)\)"):
+        layer_svg(tmp_path / "m.npz", 0)
