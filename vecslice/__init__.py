@@ -61,8 +61,9 @@ _LAZY = {
     "to_microns": "vecslice.units",
 }
 
-# submodules reachable as attributes without an explicit import (vs.plot.layer(...))
-_SUBMODULES = ("plot", "svg", "viewer")
+# submodules reachable as attributes without an explicit import (vs.plot.layer(...),
+# vs.metrics.contour_errors(...))
+_SUBMODULES = ("metrics", "plot", "svg", "viewer")
 
 __all__ = [
     "COORD_LIMIT",

@@ -26,9 +26,14 @@ def _check_number(value: object, name: str, unit: str, *, zero: bool) -> float:
             f"`{name}` must be a number of {unit}; got {type(value).__name__} "
             f"{value!r}"
         )
-    v = float(value)
+    want = "finite and >= 0" if zero else "finite and > 0"
+    try:
+        v = float(value)
+    except OverflowError:  # a Python int beyond float range (10**400)
+        digits = int(abs(int(value)).bit_length() * 0.30103)
+        raise SettingsError(f"`{name}` must be {want} ({unit}); got "
+                            f"{'-' if value < 0 else ''}10**{digits} or so") from None
     if not np.isfinite(v) or v < 0 or (v == 0 and not zero):
-        want = "finite and >= 0" if zero else "finite and > 0"
         raise SettingsError(f"`{name}` must be {want} ({unit}); got {v!r}")
     return v
 

@@ -77,3 +77,13 @@ def test_functions_named_like_their_module_win():
     for name in clash:
         assert callable(getattr(vs, name)) and not isinstance(getattr(vs, name),
                                                               types.ModuleType)
+
+
+def test_submodules_are_reachable_without_an_import():
+    """Audit s25 sweep D2: ``vs.metrics`` existed only once something else had
+    imported vecslice.metrics (notebook 02 failed with a distributed client)."""
+    code = ("import vecslice as vs\n"
+            "assert callable(vs.metrics.contour_errors)\n"
+            "assert callable(vs.plot.layer) and callable(vs.svg.layer_svg)\n"
+            "assert callable(vs.viewer.viewer_html)\n")
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)

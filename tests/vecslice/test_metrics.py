@@ -367,3 +367,15 @@ def test_contour_errors_never_freezes_or_keeps_the_callers_arrays():
     for name, a in mine.items():
         assert a.flags.writeable, name
         assert not np.may_share_memory(getattr(err, name), a), name
+
+
+@pytest.mark.parametrize("value", [10**400, -10**400])
+def test_a_speed_beyond_float_range_is_a_settings_error(cylinder, value):
+    """Audit s25 sweep D4: a bare OverflowError escaped."""
+    model = vs.slice_mesh(cylinder)
+    with pytest.raises(vs.SettingsError, match=r"`speed_mm_s` must be finite and > 0 "
+                       r"\(mm/s\); got -?10\*\*400 or so"):
+        resolution_stats(model, model, speed_mm_s=value)
+    with pytest.raises(vs.SettingsError, match=r"`controller_ms` must be finite and "
+                                               r">= 0 \(ms\); got -?10\*\*400 or so"):
+        vs.metrics.move_stats(model, controller_ms=value)
