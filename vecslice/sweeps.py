@@ -15,6 +15,7 @@ import os
 import sys
 import threading
 import time
+import uuid
 from collections.abc import Iterable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -325,10 +326,24 @@ def _timed(fn: Any, *args: Any) -> tuple[Any, float]:
     return fn(*args), time.perf_counter() - t
 
 
+class _Stopped(Exception):
+    """The sweep was interrupted: a task stops between combinations."""
+
+
+_STOPS: dict[str, threading.Event] = {}
+"""Local sweeps running in this process, by token: set on Ctrl-C (_run_local).
+
+A task looks its sweep up (a worker of a distributed cluster finds nothing: the
+client releases its futures instead)."""
+
+
 def _rows(prep: _Prepared, mesh_index: int, name: str,
           combos: list[tuple[int, SliceSettings]], speed: float,
-          controller_ms: float) -> list[dict[str, Any]]:
+          controller_ms: float, token: str = "") -> list[dict[str, Any]]:
     """All rows of one (mesh, layer schedule) task.
+
+    Once the sweep ``token`` names is stopped (Ctrl-C), no further combination
+    is started and the rows made so far are returned (nobody reads them).
 
     The combinations' stages run as a pipeline on two threads besides this one:
     while a combination's parts are made here (manifold3d, mostly one core), its
@@ -342,6 +357,11 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
     from vecslice.pipeline import _clean_closed, _kept_loops
     from vecslice.slicing import _contours
     from vecslice.stitch import stitch
+
+    stop = _STOPS.get(token)
+
+    def stopped() -> bool:
+        return stop is not None and stop.is_set()
 
     if prep.error:
         return [_row(mesh_index, name, i, s, None, prep.error) for i, s in combos]
@@ -370,9 +390,14 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
 
     if cura:  # CuraEngine's own stages: no raw contours to share
         shared = share()
-        return [_measured(mesh_index, name, i, s, _cura_model(shared, s), None,
-                          shared, speed=speed, controller_ms=controller_ms)
-                for i, s in combos]
+        out = []
+        for i, s in combos:
+            if stopped():
+                break
+            out.append(_measured(mesh_index, name, i, s, _cura_model(shared, s),
+                                 None, shared, speed=speed,
+                                 controller_ms=controller_ms))
+        return out
     kept: dict[int, Any] = {}  # perimeter filters, by minimum circumference
     kept_lock = threading.Lock()
     # a ring that comes out of simplification as in an earlier combination
@@ -380,6 +405,8 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
     cache = _error_cache(raw)
 
     def simplified(s: SliceSettings) -> tuple[Any, float]:
+        if stopped():
+            raise _Stopped
         t = time.perf_counter()
         c = s.minimum_polygon_circumference
         with kept_lock:
@@ -398,6 +425,9 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
         # while the first two combinations are simplified
         shared = share()
         for n, (i, s) in enumerate(combos):
+            if stopped():  # waits only for what the helpers are running now
+                pool.shutdown(wait=False, cancel_futures=True)
+                return rows
             for j in (n, n + 1):  # this combination (if not yet), and the next
                 if j < len(combos) and j not in ahead:
                     ahead[j] = pool.submit(simplified, combos[j][1])
@@ -690,6 +720,7 @@ def sweep(
     scales = _scales(scale, items)
     progress = bool(check_bool(progress, "progress"))
     groups = _schedule_groups(combos)
+    token = uuid.uuid4().hex if client is None else ""  # see _STOPS
     tasks = []
     for mi, (name, source) in enumerate(items):
         # a path is read once per way of reading it; a Mesh is prepared once
@@ -701,9 +732,9 @@ def sweep(
                 preps[compat] = dask.delayed(_prepare, pure=False)(
                     source, scales[name], compat or "vecslice")
             tasks.append((mi, name, group, dask.delayed(_rows, pure=False)(
-                preps[compat], mi, name, group, speed, ctrl)))
+                preps[compat], mi, name, group, speed, ctrl, token)))
     if client is None:
-        results = _run_local(dask, [t[3] for t in tasks], progress)
+        results = _run_local(dask, [t[3] for t in tasks], progress, token)
     else:
         results = _run_client(client, tasks, progress)
     rows = [r for rs in results for r in rs]
@@ -715,7 +746,24 @@ def sweep(
     return table
 
 
-def _run_local(dask: Any, delayed: list[Any], progress: bool) -> list[Any]:
+def _run_local(dask: Any, delayed: list[Any], progress: bool,
+               token: str) -> list[Any]:
+    """The tasks on this machine; on Ctrl-C, the running ones stop too.
+
+    dask starts no further task once the interrupt reaches this thread, and
+    the tasks already running stop between combinations (``_STOPS``).
+    """
+    _STOPS[token] = threading.Event()
+    try:
+        return _compute_local(dask, delayed, progress)
+    except BaseException:
+        _STOPS[token].set()
+        raise
+    finally:
+        _STOPS.pop(token, None)  # a stopped task holds its Event
+
+
+def _compute_local(dask: Any, delayed: list[Any], progress: bool) -> list[Any]:
     scheduler = _local_scheduler()
     if not progress:
         return list(dask.compute(*delayed, scheduler=scheduler))

@@ -388,3 +388,37 @@ def test_helper_threads_run_their_kernels_alone_and_lower(monkeypatch, box):
         assert all(p == min(19, base + sweeps.HELPER_NICE) for _, _, p in seen)
         assert os.getpriority(os.PRIO_PROCESS, threading.get_native_id()) == base
     assert numba.get_num_threads() == threads
+
+
+def test_ctrl_c_stops_the_running_tasks_too(box, monkeypatch):
+    """Audit s25 sweep D1: Ctrl-C returned at once, but a running task (one mesh
+    x one schedule: every combination) went on making all its combinations in
+    the background, on both cores."""
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signals reach the main thread only")
+    import vecslice.sweeps as sw
+
+    made = []
+    real = sw._model
+
+    def model(*args, **kwargs):
+        made.append(time.monotonic())
+        if len(made) == 1:  # Ctrl-C while the first combination's parts are made
+            signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
+        time.sleep(0.2)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(sw, "_model", model)
+    grid = {"max_resolution": [100, 200, 300, 400, 500, 600],
+            "max_deviation": [10, 20]}  # 12 combinations, one task
+    with pytest.raises(KeyboardInterrupt):
+        vs.sweep(box, grid)
+    deadline = time.monotonic() + 10
+    while (any(t.name.startswith("vecslice-sweep") for t in threading.enumerate())
+           and time.monotonic() < deadline):
+        time.sleep(0.05)
+    assert not any(t.name.startswith("vecslice-sweep") for t in threading.enumerate())
+    assert len(made) <= 2, len(made)  # the first; at most the next, begun already
+    # a later sweep is not stopped by the earlier one's interrupt
+    monkeypatch.setattr(sw, "_model", real)
+    assert len(vs.sweep(box, {"max_deviation": [10, 20]})) == 2
