@@ -5,8 +5,9 @@
   ring, layer and model) and the area of the symmetric difference.
 * :func:`move_stats` — the printer moves a model asks for: lengths, durations
   at a contour speed, the share shorter than a controller's time per move.
-* :func:`volume_error` — the Z staircase: layer areas times thicknesses against
-  the mesh volume.
+* :func:`volume_error` — layer areas times thicknesses against the mesh volume:
+  the model's (simplification included) and the Z staircase alone (the mesh's
+  exact sections at the cut heights).
 * :func:`layer_xor_areas` — symmetric difference of two whole layers (booleans).
 
 All lengths are µm, areas µm², volumes µm³ unless a name says mm.

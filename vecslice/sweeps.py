@@ -47,7 +47,8 @@ METRIC_COLUMNS = (
     # more detail
     "raw_rings", "rings", "dropped_rings", "rings_beyond_max_deviation",
     "raw_to_simplified_um", "simplified_to_raw_um", "xor_sweep_rings",
-    "relative_volume_error", "mesh_volume_mm3", "stack_height_um", "height_um",
+    "relative_volume_error", "staircase_error_mm3", "relative_staircase_error",
+    "mesh_volume_mm3", "stack_height_um", "height_um",
     "open_chains", "moves", "shortest_move_um", "move_p1_um", "move_p5_um",
     "move_p50_um", "move_p50_ms", "prep_seconds",
 )
@@ -368,7 +369,8 @@ def _measured(mesh_index: int, name: str, i: int, s: SliceSettings, model: Any,
             seconds += err_seconds
         moves = move_stats(model, speed_mm_s=speed, controller_ms=controller_ms,
                            percentiles=(1, 5, 50))
-        vol = volume_error(model, shared.mesh, _solid_of_mesh=shared.solid)
+        vol = volume_error(model, shared.mesh, _solid_of_mesh=shared.solid,
+                           _section_area_um2=err.raw_area_um2 if err else None)
     except Exception as exc:
         return _row(mesh_index, name, i, s, None, _describe(exc))
     nan = math.nan
@@ -392,6 +394,8 @@ def _measured(mesh_index: int, name: str, i: int, s: SliceSettings, model: Any,
         "simplified_to_raw_um": _nanmax(err.simplified_to_raw_um) if err else nan,
         "xor_sweep_rings": int((~err.linear).sum()) if err else nan,
         "relative_volume_error": vol.relative_volume_error,
+        "staircase_error_mm3": vol.staircase_error_mm3,
+        "relative_staircase_error": vol.relative_staircase_error,
         "mesh_volume_mm3": vol.mesh_volume_mm3,
         "stack_height_um": vol.stack_height_um,
         "height_um": vol.height_um,
@@ -492,8 +496,10 @@ def sweep(
         ``max_deviation_um`` is the model's largest measured deviation of a
         simplified ring from its raw ring (exact); ``area_error_um2`` the summed
         ring XOR area and ``relative_area_error`` that over the net raw area;
-        ``volume_error_mm3`` the staircase error (:func:`vecslice.metrics.
-        volume_error`); ``short_move_fraction`` and ``moves_per_s`` come from
+        ``volume_error_mm3`` the volume error of the model's layers, and
+        ``staircase_error_mm3`` that of the Z staircase alone, whatever the XY
+        settings (:func:`vecslice.metrics.volume_error`);
+        ``short_move_fraction`` and ``moves_per_s`` come from
         :func:`vecslice.metrics.move_stats`; ``seconds`` sums the times of the
         combination's own stages (simplification, union, metrics; they overlap
         with other combinations' stages, so the column adds up to more than the

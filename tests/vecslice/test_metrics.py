@@ -231,6 +231,30 @@ def test_square_cone_staircase_error_closed_form(t):
     want_um3 = -(init**3 + (n - 1) * t**3) / 3
     assert st_.mesh_volume_mm3 == pytest.approx(4 * (a**3 - (a - h) ** 3) / 3 * 1e-9)
     assert st_.volume_error_mm3 * 1e9 == pytest.approx(want_um3, rel=1e-6)
+    assert st_.staircase_error_mm3 * 1e9 == pytest.approx(want_um3, rel=1e-6)
+
+
+def test_the_staircase_alone_is_independent_of_the_xy_settings():
+    """Audit s25 sweep D3: the volume error called "the staircase alone" held the
+    XY simplification's area changes, 4.6x the staircase on this cone at the
+    defaults and 44x at (2000, 100); the closed form held only with
+    simplification off."""
+    import trimesh
+
+    mesh = vs.load_mesh(trimesh.creation.cone(radius=6, height=4, sections=48))
+    off = vs.SliceSettings(max_resolution=0, max_deviation=0, max_area_deviation=0,
+                           minimum_polygon_circumference=0)
+    stats = [volume_error(vs.slice_mesh(mesh, s), mesh) for s in
+             (off, vs.SliceSettings(),
+              vs.SliceSettings(max_resolution=2000, max_deviation=100))]
+    assert len({st_.staircase_error_mm3 for st_ in stats}) == 1
+    z_only = stats[0].staircase_error_mm3
+    assert z_only < 0  # a cone loses volume at mid-layer cuts
+    assert stats[0].volume_error_mm3 == pytest.approx(z_only, abs=1e-4)
+    assert stats[1].volume_error_mm3 < 3 * z_only  # the defaults: 4.6x
+    assert stats[2].volume_error_mm3 < 30 * z_only
+    assert stats[1].relative_staircase_error == pytest.approx(
+        z_only / stats[1].reference_volume_mm3)
 
 
 def test_short_stack_is_measured_against_the_volume_below_it():

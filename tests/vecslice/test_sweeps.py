@@ -66,8 +66,10 @@ def test_rows_equal_slice_mesh_and_metrics(meshes_dir):
         moves = vs.metrics.move_stats(model)
         assert row.short_move_fraction == moves.short_move_fraction
         assert row.moves_per_s == moves.moves_per_s
-        assert row.volume_error_mm3 == vs.metrics.volume_error(model, mesh
-                                                               ).volume_error_mm3
+        vol = vs.metrics.volume_error(model, mesh)
+        assert row.volume_error_mm3 == vol.volume_error_mm3
+        assert row.staircase_error_mm3 == vol.staircase_error_mm3
+        assert row.relative_staircase_error == vol.relative_staircase_error
 
 
 def test_variant_is_slice_mesh(meshes_dir):
