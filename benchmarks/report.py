@@ -9,7 +9,11 @@ then ``slice_contours``; manifold3d a ``Manifold`` from float32 mm arrays, then
 ``slice`` per height; MeshLib ``meshFromFacesVerts`` from float32 mm arrays, then
 ``extractXYPlaneSections`` + ``planeSectionsToContours2f`` per height; trimesh a
 ``Trimesh`` from float64 mm arrays, then ``section_multiplane``. Same mesh (copies
-of 3DBenchy side by side), same 0.1 mm heights.
+of 3DBenchy side by side), same 0.1 mm heights. manifold3d's ``slice`` does more
+than raw contours: it unions each layer's polygons (Clipper2, positive fill), as
+the rows say. Before anything is timed, every peer's sections are checked against
+vecslice's (contours and area per layer, ``_agree.py``); no table is printed if
+they disagree.
 
 The libraries are interleaved within each repeat (so a change of machine load hits
 all of them alike); ratios are taken within a repeat and reported as the median
@@ -39,6 +43,7 @@ sys.path[:0] = [str(HERE), str(HERE.parent)]
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
+from _agree import check_agreement  # noqa: E402
 
 import vecslice as vs  # noqa: E402
 from _simplify_data import (  # noqa: E402
@@ -262,6 +267,7 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         before = _os_threads()
         fn(*fargs)
         pools[name] = _os_threads() - before
+    agreement = check_agreement(five, one, trimesh=not args.no_trimesh)
     full_slice(v1_um, f1)
     vecslice_simplify(*circles)
     floor_args = floor_inputs(five, z)
@@ -300,7 +306,8 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
     n_faces = f.shape[0]
     rows = [
         ("raw contours, from arrays (`Mesh.from_arrays` + `slice_contours`)",
-         fmt_s(S["vs"]), f"manifold3d build + `slice` {fmt_s(S['mf'])}",
+         fmt_s(S["vs"]),
+         f"manifold3d build + `slice` (unions each layer) {fmt_s(S['mf'])}",
          fmt_ratio(ratio(S["vs"], S["mf"]))),
         ("raw contours, from arrays", fmt_s(S["vs"]),
          f"MeshLib build + `extractXYPlaneSections` {fmt_s(S['ml'])}",
@@ -377,6 +384,8 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         f"numba {numba.get_num_threads()} threads ({numba.threading_layer()} layer).",
         f"Worker threads each library started (besides the calling one): {started}; "
         f"CPU time / wall time while timed: {par}.",
+        "Outputs checked before timing (closed contours and net area per layer "
+        "against vecslice's raw loops): " + "; ".join(agreement) + ".",
         "Versions: " + ", ".join(f"{d} {_version(d)}" for d in (
             "vecslice", "numpy", "numba", "manifold3d", "meshlib", "trimesh",
             "clipper2-py")) + f", Python {platform.python_version()}.",
