@@ -1,7 +1,8 @@
 """Draw docs/adaptive_layers.png: the adaptive layer schedule of 3DBenchy.
 
 Usage: python docs/plot_adaptive_layers.py [MESH]
-(default: ../shared/meshes/3DBenchy.3mf beside the repository)
+(default: $VECSLICE_SHARED/meshes/3DBenchy.3mf, the shared data being
+../shared beside the repository unless VECSLICE_SHARED names it, as for the tests)
 
 Needs matplotlib (the ``notebooks`` extra). Thickness of every layer against the
 height of its top, with CuraEngine's default adaptive settings and with a smaller
@@ -10,6 +11,7 @@ topography threshold, beside the uniform 0.1 mm schedule.
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -22,7 +24,8 @@ import numpy as np
 import vecslice as vs
 
 HERE = Path(__file__).resolve().parent
-MESH = HERE.parent.parent / "shared" / "meshes" / "3DBenchy.3mf"
+SHARED = Path(os.environ.get("VECSLICE_SHARED", HERE.parent.parent / "shared"))
+MESH = SHARED / "meshes" / "3DBenchy.3mf"
 
 
 def main() -> None:
