@@ -32,12 +32,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice.errors import InputValueError, MeshFileError, VecsliceError
+from vecslice.plybinary import read_ply_binary
 from vecslice.plyoff import (
     _ply_parse,
     fan_triangles,
     read_off,
     read_ply_ascii,
-    read_ply_binary,
 )
 
 if TYPE_CHECKING:

@@ -4,9 +4,10 @@ A header's counts are checked against the file's size, and an ASCII body row by
 row against them (rows, values per row, list lengths), so a truncated or lying
 file is refused instead of loading as part of a mesh; the numbers those checks
 parsed are then the mesh. A binary PLY body is walked record by record through
-its list counts. Faces of any corner count load as triangle fans. (trimesh read
-these once: it reads every binary list with the first one's length, and splits
-ASCII rows at characters that are not line ends, so some files loaded wrong.)
+its list counts (:mod:`vecslice.plybinary`). Faces of any corner count load as
+triangle fans. (trimesh read these once: it reads every binary list with the
+first one's length, and splits ASCII rows at characters that are not line ends,
+so some files loaded wrong.)
 Used by :mod:`vecslice.meshfile`, whose limits and messages these checks share.
 """
 
@@ -47,6 +48,24 @@ _PLY_INTS = {name for name, code in _PLY_TYPES.items() if code[0] in "iu"}
 _PLY_UNSIGNED = {name for name, code in _PLY_TYPES.items() if code[0] == "u"}
 _PLY_ORDER = {"binary_little_endian": "<", "binary_big_endian": ">"}
 _PLY_FACE_NAMES = ("vertex_indices", "vertex_index")
+_COUNT = re.compile(r"[0-9]{1,18}")  # ASCII digits ("²" is a digit to isdigit)
+
+
+def _words(line: str) -> list[str]:
+    """A header line's words, split at ASCII blanks only (as the body's numbers)."""
+    return [w for w in _BLANKS.split(line) if w]
+
+
+_BLANKS = re.compile(r"[ \t\r\v\f]+")
+
+
+def _shown(line: str) -> str:
+    """A header line (read as Latin-1) for a message, quoted, cut at 80 characters.
+
+    Its bytes are shown as UTF-8 where they are.
+    """
+    text = line.encode("latin-1").decode("utf-8", "backslashreplace")
+    return repr(text[:80]) + ("..." if len(text) > 80 else "")
 
 
 def _rows(body: bytes) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -62,19 +81,53 @@ def _rows(body: bytes) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     return counts.astype(np.int64), lines.astype(np.int64)
 
 
-def _body_numbers(path: Path, body: bytes, n: int) -> NDArray[np.float64]:
-    """The ``n`` numbers of an ASCII body, or an error naming the first that is not."""
+def _body_numbers(path: Path, body: bytes, n: int,
+                  first_line: int) -> NDArray[np.float64]:
+    """The ``n`` numbers of an ASCII body, or an error naming the first that is not.
+
+    ``first_line``: the lines before the body (for the message).
+    """
     vals = _mf()._numbers(body, np.float64, n)
     if vals is None:
-        tok = next(t for t in body.split() if _mf()._numbers(t, np.float64, 1) is None)
-        raise MeshFileError(f"'{path}' is corrupt: {tok.decode('latin-1')!r} where "
-                            "a number should be")
+        at, tok = _first_non_number(body)
+        line = first_line + body.count(b"\n", 0, at) + 1
+        raise MeshFileError(
+            f"'{path}' is corrupt: {tok.decode('latin-1')[:40]!r} where a number "
+            f"should be (line {line})")
     return vals
+
+
+def _first_non_number(body: bytes) -> tuple[int, bytes]:
+    """Where the first token of ``body`` that is not a number is, and it.
+
+    Found by halving: the tokens before the middle one are parsed at once, and
+    the search goes on in the half that fails; about two parses of the body in
+    all, whatever its size (one parse per token took minutes).
+    """
+    c = np.frombuffer(body, dtype=np.uint8)
+    blank = (c == 32) | ((c >= 9) & (c <= 13))
+    starts = np.flatnonzero(~blank & np.concatenate([[True], blank[:-1]]))
+    ends = np.flatnonzero(~blank & np.concatenate([blank[1:], [True]])) + 1
+    lo, hi = 0, len(starts)  # the first bad token is in [lo, hi)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if _mf()._numbers(body[starts[lo]:ends[mid - 1]], np.float64, mid - lo) is None:
+            hi = mid
+        else:
+            lo = mid
+    return (int(starts[lo]), body[starts[lo]:ends[lo]]) if len(starts) else (0, b"")
+
+
+def _num(x: float) -> str:
+    """A number read from a file, for a message: as written, if it was whole."""
+    if x == np.floor(x) and abs(x) < 1e18:
+        return str(int(x))
+    return repr(float(x))
 
 
 def _check_rows(path: Path, body: bytes, first_line: int, fmt: str,
                 elements: list[tuple[str, int, list[bool], list[bool]]]
-                ) -> tuple[NDArray[np.float64], list[list[NDArray[np.int64]]]]:
+                ) -> tuple[NDArray[np.float64], list[_Rows]]:
     """Check an ASCII body row by row against the elements its header announces.
 
     ``elements``: (name, count, per property whether it is a list, and whether
@@ -82,8 +135,8 @@ def _check_rows(path: Path, body: bytes, first_line: int, fmt: str,
     length and that many values. Refuses a truncated or padded body, a row with
     too few or too many values and a polygon with fewer than 3 corners.
 
-    Returns the body's numbers and, per element and property, where each
-    record's value (a list's length) is among them.
+    Returns the body's numbers and, per element, where each property's value
+    (a list's length) of each record is among them, and the records' lines.
     """
     per_row, line = _rows(body)
     announced = sum(e[1] for e in elements)
@@ -93,16 +146,16 @@ def _check_rows(path: Path, body: bytes, first_line: int, fmt: str,
             f"'{path}' is truncated or corrupt: its {fmt} header announces {desc} "
             f"elements ({announced:,} lines), but {per_row.shape[0]:,} lines of "
             "numbers follow it")
-    vals = _body_numbers(path, body, int(per_row.sum()))
+    vals = _body_numbers(path, body, int(per_row.sum()), first_line)
     begin = np.cumsum(per_row) - per_row
     row0, where = 0, []
     for name, count, props, polygon_props in elements:
         rows = slice(row0, row0 + count)
         pos, end = begin[rows].copy(), begin[rows] + per_row[rows]
         short = np.zeros(count, dtype=bool)
-        where.append([])
+        where.append(_Rows([], first_line + line[rows] + 1))
         for is_list, polygons in zip(props, polygon_props, strict=True):
-            where[-1].append(pos)
+            where[-1].at.append(pos)
             if is_list:
                 n = vals[np.minimum(pos, vals.shape[0] - 1)]
                 short |= pos >= end
@@ -113,9 +166,13 @@ def _check_rows(path: Path, body: bytes, first_line: int, fmt: str,
                     raise MeshFileError(
                         f"'{path}' is corrupt: {fmt} '{name}' {k} (line "
                         f"{first_line + int(line[row0 + k]) + 1}) has a list of "
-                        f"{vals[pos[k]]:g} values"
-                        + ("; a face needs at least 3 vertices" if polygons else ""))
-                pos = pos + 1 + np.where(short, 0, n).astype(np.int64)
+                        f"{_num(vals[pos[k]])} values"
+                        + ("; a list's length is a whole number >= 0"
+                           if n[k] != np.floor(n[k]) or n[k] < 0 else
+                           "; a face needs at least 3 vertices"))
+                # a list longer than its row (up to 1e308) ends past the row
+                pos = pos + 1 + np.where(short, 0, np.minimum(n, end - pos)).astype(
+                    np.int64)
             else:
                 pos = pos + 1
         wrong = np.flatnonzero(short | (pos != end))
@@ -128,6 +185,14 @@ def _check_rows(path: Path, body: bytes, first_line: int, fmt: str,
                 f"{int(pos[k] - begin[row0 + k])}")
         row0 += count
     return vals, where
+
+
+@dataclass
+class _Rows:
+    """An ASCII element's records: where each property's value is, their lines."""
+
+    at: list[NDArray[np.int64]]
+    line: NDArray[np.int64]
 
 
 @dataclass
@@ -161,12 +226,14 @@ class _Header:
 
 def _ply_parse(path: Path, data: bytes) -> _Header:
     """Parse a PLY header and check its counts against limits and the file's size."""
-    end = re.search(rb"end_header[ \t]*\r?\n", data[: 1 << 20])
+    # the line that is end_header (a comment may end with the word)
+    end = re.search(rb"\nend_header[ \t]*\r?\n", data[: 1 << 20])
     if not data.startswith(b"ply") or end is None:
         raise MeshFileError(f"'{path}' is not a PLY file: no 'ply ... end_header' "
                             f"header{_mf()._utf16_hint(data)}")
-    lines = data[: end.end()].decode("latin-1").splitlines()
-    fmt = next((ln.split() for ln in lines if ln.startswith("format")), ["", ""])
+    # lines end at line feeds only, as in the body (not at \f, \v or \x85)
+    lines = data[: end.end()].decode("latin-1").split("\n")[:-1]
+    fmt = next((_words(ln) for ln in lines if ln.startswith("format")), ["", ""])
     fmt += [""] * (2 - len(fmt))
     binary = fmt[1].startswith("binary")
     if binary and fmt[1] not in _PLY_ORDER:
@@ -175,16 +242,18 @@ def _ply_parse(path: Path, data: bytes) -> _Header:
                             "binary_big_endian")
     need, elements = 0, []
     for ln in lines:
-        w = ln.split()
+        w = _words(ln)
         if w[:1] == ["element"] and len(w) == 3:
-            if not w[2].isdigit():
-                raise MeshFileError(f"'{path}' is corrupt: PLY header line {ln!r}")
+            if not _COUNT.fullmatch(w[2]):
+                raise MeshFileError(f"'{path}' is corrupt: PLY header line "
+                                    f"{_shown(ln)}: the count must be a whole "
+                                    "number below 10**18")
             elements.append(_Element(w[1], int(w[2])))
         elif w[:1] == ["property"] and elements and len(w) >= 3:
             is_list = w[1] == "list" and len(w) == 5
-            if binary and not set(w[2:4] if is_list else w[1:2]) <= _PLY_SIZES.keys():
-                raise MeshFileError(f"'{path}' is corrupt: PLY header line {ln!r} has "
-                                    "an unknown property type")
+            if not set(w[2:4] if is_list else w[1:2]) <= _PLY_SIZES.keys():
+                raise MeshFileError(f"'{path}' is corrupt: PLY header line "
+                                    f"{_shown(ln)} has an unknown property type")
             elements[-1].props.append((w[4], w[2], w[3]) if is_list
                                       else (w[2], None, w[1]))
     face = next((e for e in elements if e.name == "face"), None)
@@ -196,7 +265,7 @@ def _ply_parse(path: Path, data: bytes) -> _Header:
                     f"'{path}' is corrupt: PLY face list property {name!r} must "
                     f"have integer types (vertex indices); got {count!r} counts "
                     f"and {value!r} values")
-            if binary and count is not None and count not in _PLY_INTS:
+            if count is not None and count not in _PLY_INTS:
                 raise MeshFileError(f"'{path}' is corrupt: PLY list property {name!r} "
                                     f"must have an integer count type; got {count!r}")
     for el in elements:
@@ -209,10 +278,12 @@ def _ply_parse(path: Path, data: bytes) -> _Header:
                                for _, c, v in el.props)
     have = len(data) - end.end()
     if need > have:
+        listed = [f"{e.count:,} '{e.name}'" for e in elements[:4]]
+        if len(elements) > 4:
+            listed.append(f"{len(elements) - 4:,} more")
         raise MeshFileError(
             f"'{path}' is truncated or corrupt: its PLY header announces "
-            + " and ".join(f"{e.count:,} '{e.name}'" for e in elements)
-            + " elements"
+            + " and ".join(listed) + " elements"
             + f" (at least {need:,} bytes), but {have:,} bytes follow the header"
         )
     return _Header(end.end(), len(lines), fmt[1], elements, face, corners)
@@ -255,14 +326,25 @@ def read_ply_ascii(path: Path, data: bytes, h: _Header) -> Arrays:
         (e.name, e.count, [c is not None for _, c, _ in e.props],
          [e is face and n == h.corners for n, _, _ in e.props])  # a face's corners
         for e in kept])
-    starts = {id(e): at for e, at in zip(kept, where, strict=True)}
+    starts = {id(e): rows for e, rows in zip(kept, where, strict=True)}
 
     def get(el: _Element, name: str) -> tuple[NDArray[Any], NDArray[np.int64]]:
         j = next(i for i, p in enumerate(el.props) if p[0] == name)
         _, count, value = el.props[j]
-        at = starts[id(el)][j]
+        rows = starts[id(el)]
+        at = rows.at[j]
         if count is None:
-            return vals[at].astype(_PLY_TYPES[value]), np.empty(0, np.int64)
+            x = vals[at]
+            if value in _PLY_INTS:  # a whole number its type holds, as in binary
+                lim = np.iinfo(_PLY_TYPES[value])
+                bad = np.flatnonzero((x != np.floor(x)) | (x < lim.min) | (x > lim.max))
+                if bad.size:
+                    k = int(bad[0])
+                    raise MeshFileError(
+                        f"'{path}' is corrupt: PLY '{el.name}' {k} (line "
+                        f"{int(rows.line[k])}) has {name} = {_num(x[k])}, which its "
+                        f"type {value} cannot hold")
+            return x.astype(_PLY_TYPES[value]), np.empty(0, np.int64)
         n = vals[at].astype(np.int64)
         items = vals[_list_items(at + 1, n, 1)]
         _integers(path, "PLY face", items, n)
@@ -280,12 +362,18 @@ def _list_items(first: NDArray[np.int64], n: NDArray[np.int64],
 
 def _integers(path: Path, what: str, items: NDArray[np.float64],
               n: NDArray[np.int64]) -> None:
-    """Refuse a vertex index that is not an integer (lists of ``n`` items)."""
-    bad = np.flatnonzero(items != np.floor(items))
+    """Refuse a vertex index that is not an integer (lists of ``n`` items).
+
+    Or one of 2**53 or more, which a double does not hold exactly (and no file
+    has that many vertices).
+    """
+    bad = np.flatnonzero((items != np.floor(items)) | ~(np.abs(items) < 2.0**53))
     if bad.size:
         k = int(np.searchsorted(np.cumsum(n), bad[0], side="right"))
+        x = items[bad[0]]
+        why = "indices are integers" if x != np.floor(x) else "beyond any vertex"
         raise MeshFileError(f"'{path}' is corrupt: {what} {k} has vertex index "
-                            f"{items[bad[0]]:g}; indices are integers")
+                            f"{_num(x)}; {why}")
 
 
 def _assemble(path: Path, h: _Header, get: Callable[
@@ -319,153 +407,6 @@ def _fans(path: Path, counts: NDArray[np.int64], corners: NDArray[Any]) -> NDArr
     return fan_triangles(counts, corners.astype(np.int64))
 
 
-# --------------------------------------------------------------------------
-# binary PLY: read here (trimesh reads every list with the first one's length)
-# --------------------------------------------------------------------------
-
-
-def read_ply_binary(path: Path, data: bytes, h: _Header) -> Arrays:
-    """Vertices (x, y, z) and triangle fans of the faces of a binary PLY file.
-
-    Every element is walked record by record through its list counts, so faces
-    of mixed corner counts (Blender writes triangles and quads) load, and a
-    count that is negative, runs past the end of the file or gives a face fewer
-    than 3 corners is refused, as are bytes after the last element.
-    """
-    order = _PLY_ORDER[h.fmt]
-    corners = _the_corners(path, h) if h.face is not None and h.face.count else None
-    pos, records = h.end, {}
-    for el in h.elements:
-        least = {corners: 3} if el is h.face else {}
-        records[id(el)], pos = _walk(path, data, pos, el, order, least)
-    if pos != len(data):
-        raise MeshFileError(
-            f"'{path}' is corrupt: {len(data) - pos:,} bytes follow the elements its "
-            "PLY header announces")
-    return _assemble(path, h, lambda el, name: _values(data, records[id(el)], el,
-                                                       order, name))
-
-
-def _widths(el: _Element, least: dict[str | None, int]) -> NDArray[np.int64]:
-    """Per property: count bytes (0: a scalar), value bytes, signed count, least."""
-    return np.array([[_PLY_SIZES[c] if c else 0, _PLY_SIZES[v],
-                      int(c is not None and c not in _PLY_UNSIGNED), least.get(n, 0)]
-                     for n, c, v in el.props], dtype=np.int64).reshape(-1, 4)
-
-
-def _record(path: Path, data: bytes, at: int, el: _Element, order: str,
-            least: dict[str | None, int], r: int) -> int:
-    """Size of record ``r`` of ``el`` at byte ``at``, or an error saying what is bad."""
-    size = 0
-    for name, count, value in el.props:
-        if count is None:
-            size += _PLY_SIZES[value]
-            continue
-        if at + size + _PLY_SIZES[count] > len(data):
-            break
-        n = int(np.frombuffer(data, order + _PLY_TYPES[count], 1, at + size)[0])
-        if n < least.get(name, 0):
-            raise MeshFileError(
-                f"'{path}' is corrupt: PLY '{el.name}' {r} (byte {at:,}) has a list "
-                f"of {n} values"
-                + ("; a face needs at least 3 vertices" if name in least else ""))
-        size += _PLY_SIZES[count] + n * _PLY_SIZES[value]
-    else:
-        if at + size <= len(data):
-            return size
-    raise MeshFileError(
-        f"'{path}' is truncated or corrupt: PLY '{el.name}' {r} (byte {at:,}) runs "
-        f"past the end of the file ({len(data):,} bytes)")
-
-
-@dataclass
-class _Records:
-    """Where the records of an element are: all ``stride`` bytes long, or not."""
-
-    start: int
-    count: int
-    stride: int = 0
-    starts: NDArray[np.int64] | None = None  # (count + 1,) unless all alike
-
-
-def _walk(path: Path, data: bytes, pos: int, el: _Element, order: str,
-          least: dict[str | None, int]) -> tuple[_Records, int]:
-    """Where the records of ``el`` (from byte ``pos``) are, and where they end.
-
-    Records whose lists all have the lengths of the first record's are checked
-    with one vectorised comparison per list; others are walked by a kernel.
-    """
-    if el.count == 0:
-        return _Records(pos, 0), pos
-    stride = _record(path, data, pos, el, order, least, 0)
-    if pos + el.count * stride <= len(data):
-        at, same = pos, True
-        for _, count, value in el.props:
-            if count is None:
-                at += _PLY_SIZES[value]
-                continue
-            n = _strided(data, at, el.count, stride, order + _PLY_TYPES[count])
-            same = bool((n == n[0]).all())
-            if not same:
-                break
-            at += _PLY_SIZES[count] + int(n[0]) * _PLY_SIZES[value]
-        if same:
-            return _Records(pos, el.count, stride), pos + el.count * stride
-    from vecslice._kernels.ply import record_starts
-
-    starts, done = record_starts(np.frombuffer(data, np.uint8), pos, el.count,
-                                 _widths(el, least), order == ">")
-    if done < el.count:  # raises, naming the record and what is wrong with it
-        _record(path, data, int(starts[done]), el, order, least, done)
-    return _Records(pos, el.count, starts=starts), int(starts[-1])
-
-
-def _strided(data: bytes, at: int, n: int, stride: int, dtype: str) -> NDArray[Any]:
-    """``n`` values of ``dtype`` from byte ``at``, ``stride`` bytes apart (a view)."""
-    return np.ndarray((n,), np.dtype(dtype), data, at, (stride,))
-
-
-def _at(data: bytes, at: NDArray[np.int64], dtype: str) -> NDArray[Any]:
-    """The values of ``dtype`` at the byte offsets ``at`` (gathered per alignment)."""
-    dt = np.dtype(dtype)
-    out = np.empty(at.shape[0], dt)
-    for k in range(dt.itemsize):
-        sel = np.flatnonzero(at % dt.itemsize == k)
-        view = np.frombuffer(data, dt, (len(data) - k) // dt.itemsize, k)
-        out[sel] = view[(at[sel] - k) // dt.itemsize]
-    return out
-
-
-def _values(data: bytes, rec: _Records, el: _Element, order: str,
-            name: str) -> tuple[NDArray[Any], NDArray[np.int64]]:
-    """Property ``name`` of every record: values (lists in a row), list counts.
-
-    The counts are empty for a scalar property.
-    """
-    j = next(i for i, p in enumerate(el.props) if p[0] == name)
-    _, count, value = el.props[j]
-    vtype, size = order + _PLY_TYPES[value], _PLY_SIZES[value]
-    if rec.starts is None:  # all records laid out as the first one
-        at = rec.start
-        for _, c, v in el.props[:j]:
-            at += _PLY_SIZES[v] if c is None else _PLY_SIZES[c] + _PLY_SIZES[v] * int(
-                np.frombuffer(data, order + _PLY_TYPES[c], 1, at)[0])
-        if count is None:
-            return _strided(data, at, rec.count, rec.stride, vtype), np.empty(0, int)
-        n = int(np.frombuffer(data, order + _PLY_TYPES[count], 1, at)[0])
-        lists = np.ndarray((rec.count, n), np.dtype(vtype), data,
-                           at + _PLY_SIZES[count], (rec.stride, size))
-        return lists.reshape(-1), np.full(rec.count, n, dtype=np.int64)
-    ats = rec.starts[:-1].copy()
-    for _, c, v in el.props[:j]:
-        ats += _PLY_SIZES[v] if c is None else _PLY_SIZES[c] + _PLY_SIZES[v] * _at(
-            data, ats, order + _PLY_TYPES[c]).astype(np.int64)
-    if count is None:
-        return _at(data, ats, vtype), np.empty(0, int)
-    n = _at(data, ats, order + _PLY_TYPES[count]).astype(np.int64)
-    return _at(data, _list_items(ats + _PLY_SIZES[count], n, size), vtype), n
-
-
 def fan_triangles(counts: NDArray[np.int64], corners: NDArray[np.int64]) -> NDArray[
         np.int64]:
     """Triangle fans of polygons: ``counts[k]`` corners each, in a row in ``corners``.
@@ -486,7 +427,7 @@ def fan_triangles(counts: NDArray[np.int64], corners: NDArray[np.int64]) -> NDAr
 
 _OFF_COMMENT = re.compile(rb"#[^\n]*")
 _OFF_COUNTS = re.compile(
-    rb"\s*[A-Z]*OFF\s+(\d+)[ \t\r]+(\d+)(?:[ \t\r]+\d+)?[ \t\r]*(?:\n|\Z)")
+    rb"\s*[A-Z]*OFF\s+(\d{1,18})[ \t\r]+(\d{1,18})(?:[ \t\r]+\d+)?[ \t\r]*(?:\n|\Z)")
 
 
 def read_off(path: Path, data: bytes) -> Arrays:
@@ -520,7 +461,8 @@ def read_off(path: Path, data: bytes) -> Arrays:
             f"'{path}' is truncated or corrupt: its OFF header announces {nv:,} "
             f"vertices and {nf:,} faces ({nv + nf:,} lines), but "
             f"{per_row.shape[0]:,} lines of numbers follow it")
-    vals = _body_numbers(path, body, int(per_row.sum()))
+    vals = _body_numbers(path, body, int(per_row.sum()),
+                         text.count(b"\n", 0, m.end()))
     begin = np.cumsum(per_row) - per_row
     short = np.flatnonzero(per_row[:nv] < 3)
     if short.size:
@@ -533,7 +475,7 @@ def read_off(path: Path, data: bytes) -> Arrays:
         k = int(bad[0])
         raise MeshFileError(
             f"'{path}' is corrupt: OFF face {k} has {int(per_row[nv + k])} numbers "
-            f"and announces {n[k]:g} corners; a face needs at least 3 corners "
+            f"and announces {_num(n[k])} corners; a face needs at least 3 corners "
             "and one index per corner")
     counts = n.astype(np.int64)
     corners = vals[_list_items(begin[nv:] + 1, counts, 1)]

@@ -304,3 +304,128 @@ def test_a_vertex_index_that_is_not_an_integer_is_refused(tmp_path):
     refused(write(tmp_path, "i.off", off),
             r"i\.off' is corrupt: OFF face 2 has vertex index 0\.2; indices are "
             "integers")
+
+
+# ---------------------------------------------------------------------------
+# hostile and corrupt ASCII files (audit s25 ply)
+# ---------------------------------------------------------------------------
+
+TET = [*CUBE_V[:3], (0, 0, 10)]
+TET_F = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
+
+
+def ascii_ply(vertex_props, vertex_rows, face_rows, head_extra=""):
+    head = (f"ply\nformat ascii 1.0\n{head_extra}element vertex {len(vertex_rows)}\n"
+            + "".join(f"property {t} {n}\n" for n, t in vertex_props)
+            + f"element face {len(face_rows)}\n"
+            "property list uchar int vertex_indices\nend_header\n")
+    return (head + "".join(r + "\n" for r in vertex_rows)
+            + "".join(r + "\n" for r in face_rows)).encode()
+
+
+@pytest.mark.parametrize(("ptype", "value", "shown"), [
+    ("int", "1.5", "1.5"), ("uchar", "300", "300"), ("int", "3e9", "3000000000"),
+    ("uint", "-1", "-1")])
+def test_an_integer_property_must_hold_its_value(tmp_path, ptype, value, shown):
+    """D1: 1.5 in an int loaded as 1, 300 in a uchar as 44, -1 in a uint as
+    4294967295 (cast without a check)."""
+    rows = ["0 0 0", f"{value} 0 0", "0 10 0", "0 0 10"]
+    data = ascii_ply([("x", ptype), ("y", "int"), ("z", "int")], rows,
+                     [" ".join(map(str, [3, *t])) for t in TET_F])
+    refused(write(tmp_path, "i.ply", data),
+            rf"i\.ply' is corrupt: PLY 'vertex' 1 \(line 11\) has x = {shown}, which "
+            rf"its type {ptype} cannot hold")
+    rows[1] = "10 0 0"
+    path = write(tmp_path, "ok.ply", ascii_ply(
+        [("x", ptype), ("y", "int"), ("z", "int")], rows,
+        [" ".join(map(str, [3, *t])) for t in TET_F]))
+    assert triangles(*read_mesh_file(path)) == triangles(TET, TET_F)
+
+
+def test_a_bad_token_in_a_large_body_is_found_in_a_few_parses(tmp_path, monkeypatch):
+    """D2: the bad token was looked for by parsing every token alone (12 MB: 15 s);
+    the message had no line."""
+    from vecslice import meshfile
+
+    n = 20_000
+    rows = ["0.5 0.25 0.125"] * n
+    rows[-1] = "0.5 0.25 -1.#IND"
+    data = ascii_ply(XYZ, rows, ["3 0 1 2"])
+    calls = []
+    real = meshfile._numbers
+    monkeypatch.setattr(meshfile, "_numbers",
+                        lambda *a: calls.append(1) or real(*a))
+    refused(write(tmp_path, "b.ply", data),
+            rf"b\.ply' is corrupt: '-1\.#IND' where a number should be \(line "
+            rf"{n + 9}\)")
+    assert len(calls) < 40  # log2 of the 60,004 tokens, and the first parse
+    off = (b"OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 x\n0 0 1\n3 0 1 2\n")
+    refused(write(tmp_path, "b.off", off),
+            r"b\.off' is corrupt: 'x' where a number should be \(line 5\)")
+
+
+def test_a_list_count_beyond_int64_is_refused_by_name(tmp_path):
+    """D3: a count of 2**63 or 1e19 wrapped to a negative row position: IndexError."""
+    for count in ("9223372036854775808", "1e19", "inf"):
+        data = (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                b"property float y\nproperty float z\nelement face 1\n"
+                b"property list uchar int vertex_indices\n"
+                b"property list uchar float texcoord\nend_header\n"
+                b"0 0 0\n1 0 0\n0 1 0\n" + count.encode() + b" 0 1 2 0\n")
+        refused(write(tmp_path, "w.ply", data),
+                r"w\.ply' is truncated or corrupt: PLY 'face' 0 \(line 14\) has 5 "
+                r"values; its header's properties need")
+
+
+@pytest.mark.parametrize(("name", "data", "match"), [
+    ("t.ply", ascii_ply([("x", "float4"), ("y", "float"), ("z", "float")], [], []),
+     r"PLY header line 'property float4 x' has an unknown property type"),
+    ("d.ply", b"ply\nformat ascii 1.0\nelement face " + b"9" * 5000 + b"\nend_header\n",
+     r"PLY header line 'element face 9999.*'\.\.\.: the count must be a whole "
+     r"number below 10\*\*18"),
+    ("s.ply", "ply\nformat ascii 1.0\nelement face ²\nend_header\n".encode(),
+     r"PLY header line 'element face ²': the count must be a whole number"),
+    ("d.off", b"OFF\n" + b"9" * 5000 + b" 1 0\n0 0 0\n",
+     r"is not an OFF file: no 'OFF' line followed by the vertex and face counts"),
+])
+def test_header_input_never_leaks_a_python_error(tmp_path, name, data, match):
+    """D4: KeyError 'float4' (ASCII), int()'s 4300-digit limit, isdigit('²')."""
+    refused(write(tmp_path, name, data), match)
+
+
+@pytest.mark.parametrize(("face", "match"), [
+    ("3.0000001 0 1 3", r"has a list of 3\.0000001 values; a list's length is a "
+                        r"whole number >= 0"),
+    ("3 0 1.0000001 3", r"PLY face 1 has vertex index 1\.0000001; indices are "
+                        r"integers"),
+    ("3 0 2 inf", r"PLY face 1 has vertex index inf; beyond any vertex"),
+    ("3 0 2 99999999999999999999999", r"PLY face 1 has vertex index 1e\+23; beyond "
+                                      r"any vertex"),
+])
+def test_messages_show_the_numbers_the_file_holds(tmp_path, face, match):
+    """D5: 3.0000001 was shown as 3, inf and 1e23 as vertex -9223372036854775808."""
+    rows = [" ".join(map(str, p)) for p in TET]
+    data = ascii_ply(XYZ, rows, ["3 0 2 1", face, "3 0 3 2", "3 1 2 3"])
+    refused(write(tmp_path, "m.ply", data), match)
+
+
+def test_header_lines_end_at_line_feeds_only(tmp_path):
+    """D6: a comment holding Å (UTF-8: \\x85 in Latin-1), \\f or \\v shifted every
+    line number; a comment ending with 'end_header' ended the header; 30,000
+    elements gave a 439 KB message."""
+    for comment in ("comment Ångström", "comment a\fb\vc", "comment end_header"):
+        rows = [" ".join(map(str, p)) for p in TET]
+        data = ascii_ply(XYZ, rows, ["3 0 2 1", "2 0 1", "3 0 3 2", "3 1 2 3"],
+                         head_extra=comment + "\n")
+        refused(write(tmp_path, "h.ply", data),
+                r"PLY 'face' 1 \(line 16\) has a list of 2 values; a face needs at "
+                r"least 3 vertices")
+        data = data.replace(b"2 0 1\n", b"3 0 1 3\n")
+        assert triangles(*read_mesh_file(write(tmp_path, "h.ply", data))) == \
+            triangles(TET, TET_F)
+    many = b"".join(b"element e%d 1\nproperty float a\n" % k for k in range(30_000))
+    data = b"ply\nformat ascii 1.0\n" + many + b"end_header\n" + b"1\n" * 29_999
+    with pytest.raises(vs.MeshFileError, match=r"announces 1 'e0' and 1 'e1' and 1 "
+                       r"'e2' and 1 'e3' and 29,996 more elements") as info:
+        vs.load_mesh(write(tmp_path, "many.ply", data))
+    assert len(str(info.value)) < 400
