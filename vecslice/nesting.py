@@ -25,7 +25,8 @@ ON_SURFACE = -1
 """Result of :func:`points_in_shell` for a point on the shell's surface."""
 
 _SAMPLES = 16  # vertices of a shell tested against a shell that may contain it
-_CHUNK = 1 << 22  # (point, face) pairs per bounding-box test
+_CHUNK = 1 << 22  # (point, face) pairs per step, about
+_DENSE_BOXES = 64  # up to this many faces, compared with every point
 
 
 def _edge_sign(ux, uy, vx, vy, px, py):  # type: ignore[no-untyped-def]
@@ -36,27 +37,93 @@ def _edge_sign(ux, uy, vx, vy, px, py):  # type: ignore[no-untyped-def]
 
 
 def _det(t: NDArray[np.int64], q: NDArray[np.int64]) -> NDArray[np.int64]:
-    """Sign of det[b - a, c - a, q - a] per row, exactly (Python integers)."""
-    e1 = (t[:, 1] - t[:, 0]).astype(object)
-    e2 = (t[:, 2] - t[:, 0]).astype(object)
-    w = (q - t[:, 0]).astype(object)
-    det = (w[:, 0] * (e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1])
-           + w[:, 1] * (e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2])
-           + w[:, 2] * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]))
-    return np.array([(d > 0) - (d < 0) for d in det], dtype=np.int64)
+    """Sign of det[b - a, c - a, q - a] per row, exactly.
+
+    ``n = (b - a) x (c - a)`` is exact in int64 (differences below 2**31), and
+    ``w . n`` (``w = q - a``) in float64 is within ``1e-15 * sum |w_i n_i|``
+    of the exact value (four roundings); rows within that bound of zero are
+    computed again with Python integers.
+    """
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    n = np.cross(e1, e2)
+    w = q - t[:, 0]
+    terms = w.astype(np.float64) * n.astype(np.float64)
+    det = terms.sum(axis=1)
+    out = np.sign(det).astype(np.int64)
+    unsure = np.flatnonzero(np.abs(det) <= 1e-15 * np.abs(terms).sum(axis=1))
+    if unsure.size:
+        wo, no = w[unsure].astype(object), n[unsure].astype(object)
+        exact = wo[:, 0] * no[:, 0] + wo[:, 1] * no[:, 1] + wo[:, 2] * no[:, 2]
+        out[unsure] = [(d > 0) - (d < 0) for d in exact]
+    return out
 
 
-def _pairs(p: NDArray[np.int64], lo: NDArray[np.int64], hi: NDArray[np.int64],
-           dims: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """(point, face) index pairs whose first ``dims`` coordinates are in the box."""
-    near = ((p[:, None, :dims] >= lo[None, :, :dims])
-            & (p[:, None, :dims] <= hi[None, :, :dims])).all(axis=2)
-    return np.nonzero(near)
+class _Boxes:
+    """Axis-aligned boxes, for finding the (point, box) pairs that meet.
+
+    Output-sensitive: the boxes are filed in a uniform x-y grid of about one
+    box per cell (coarser where large boxes would fill too many cells: at most
+    8 cells per box on average), and a point meets only the boxes of its cell
+    (a box holding a point covers the point's cell). Few boxes are compared all
+    against all.
+    """
+
+    def __init__(self, lo: NDArray[np.int64], hi: NDArray[np.int64]) -> None:
+        self.lo, self.hi = lo, hi
+        n = lo.shape[0]
+        self.grid = n > _DENSE_BOXES
+        if not self.grid:
+            return
+        self.base = lo[:, :2].min(axis=0)
+        g = int(np.sqrt(n))
+        while True:  # coarser while large boxes (a fan's) fill too many cells
+            self.cell = np.maximum((hi[:, :2].max(axis=0) - self.base) // g + 1, 1)
+            c0 = (lo[:, :2] - self.base) // self.cell  # 0 .. g
+            span = (hi[:, :2] - self.base) // self.cell - c0 + 1
+            per = span[:, 0] * span[:, 1]
+            if g == 1 or int(per.sum()) <= 8 * n:
+                break
+            g //= 2
+        self.g = g
+        box = np.repeat(np.arange(n), per)
+        k = np.arange(box.shape[0]) - np.repeat(np.cumsum(per) - per, per)
+        key = (c0[box, 0] + k // span[box, 1]) * (g + 1) + c0[box, 1] + k % span[box, 1]
+        order = np.argsort(key, kind="stable")
+        self.key, self.box = key[order], box[order]
+
+    def step(self) -> int:
+        """Points per call of :meth:`pairs` that keep its scratch within _CHUNK."""
+        return max(1, _CHUNK // (16 if self.grid else max(self.lo.shape[0], 1)))
+
+    def pairs(self, p: NDArray[np.int64],
+              dims: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """(point, box) index pairs whose first ``dims`` coordinates meet."""
+        lo, hi = self.lo, self.hi
+        if not self.grid:
+            near = ((p[:, None, :dims] >= lo[None, :, :dims])
+                    & (p[:, None, :dims] <= hi[None, :, :dims])).all(axis=2)
+            pi, bi = np.nonzero(near)
+            return pi.astype(np.int64), bi.astype(np.int64)
+        g = self.g
+        pc = (p[:, :2] - self.base) // self.cell
+        inside = ((pc >= 0) & (pc <= g)).all(axis=1)
+        pkey = np.where(inside, pc[:, 0] * (g + 1) + pc[:, 1], -1)
+        left = np.searchsorted(self.key, pkey, side="left")
+        cnt = np.where(inside, np.searchsorted(self.key, pkey, side="right") - left, 0)
+        pi = np.repeat(np.arange(p.shape[0]), cnt)
+        bi = self.box[np.arange(pi.shape[0]) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+                      + np.repeat(left, cnt)]
+        ok = ((p[pi, :dims] >= lo[bi, :dims]) & (p[pi, :dims] <= hi[bi, :dims])).all(
+            axis=1)
+        return pi[ok], bi[ok]
 
 
 def _on_faces(q: NDArray[np.int64], t: NDArray[np.int64]) -> NDArray[np.bool_]:
-    """Whether point ``q[i]`` lies on the closed triangle ``t[i]`` (exact)."""
-    on = _det(t, q) == 0
+    """Whether point ``q[i]`` lies on the closed triangle ``t[i]`` (exact).
+
+    The plane test (a determinant) is made only for points within the triangle
+    as seen along its normal's largest axis.
+    """
     e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
     n = np.cross(e1, e2)  # |components| < 2**63: differences below 2**31
     k = np.argmax(np.abs(n), axis=1)  # drop the normal's largest axis
@@ -69,8 +136,11 @@ def _on_faces(q: NDArray[np.int64], t: NDArray[np.int64]) -> NDArray[np.bool_]:
         s.append(np.sign((v[:, 0] - u[:, 0]) * (q2[:, 1] - u[:, 1])
                          - (v[:, 1] - u[:, 1]) * (q2[:, 0] - u[:, 0])))
     s = np.stack(s, axis=1)
-    inside = (s >= 0).all(axis=1) | (s <= 0).all(axis=1)
-    return on & inside & (np.abs(n).max(axis=1) > 0)
+    inside = ((s >= 0).all(axis=1) | (s <= 0).all(axis=1)) & (np.abs(n).max(axis=1) > 0)
+    on = np.zeros(q.shape[0], dtype=bool)
+    pick = np.flatnonzero(inside)
+    on[pick] = _det(t[pick], q[pick]) == 0
+    return on
 
 
 def points_in_shell(
@@ -92,19 +162,36 @@ def points_in_shell(
         1 inside, 0 outside, :data:`ON_SURFACE` on a face (exactly: the point
         lies on the plane of a face, within it).
     """
+    on, crossing = _meetings(points, tri)
+    crossings = np.bincount(crossing[0], minlength=points.shape[0])
+    at = np.zeros(points.shape[0], dtype=bool)
+    at[on[0]] = True
+    return np.where(at, ON_SURFACE, crossings % 2)
+
+
+def _meetings(points: NDArray[np.int64], tri: NDArray[np.int64]) -> tuple[
+        tuple[NDArray[np.int64], NDArray[np.int64]],
+        tuple[NDArray[np.int64], NDArray[np.int64]]]:
+    """The (point, face) pairs where the point lies on the face, and the crossings.
+
+    A crossing is a (point, face) pair where the ray up from the point crosses
+    the face (see the module's docstring).
+    """
     lo3, hi3 = tri.min(axis=1), tri.max(axis=1)
     a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
     area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (
         c[:, 0] - a[:, 0])
     flat = np.flatnonzero(area != 0)  # vertical faces: no generic vertical ray
-    crossings = np.zeros(points.shape[0], dtype=np.int64)
-    on = np.zeros(points.shape[0], dtype=bool)
-    step = max(1, _CHUNK // max(tri.shape[0], 1))
+    every, lying = _Boxes(lo3, hi3), _Boxes(lo3[flat], hi3[flat])
+    step = min(every.step(), lying.step())
+    on: list[tuple[NDArray[np.int64], NDArray[np.int64]]] = []
+    cross: list[tuple[NDArray[np.int64], NDArray[np.int64]]] = []
     for s in range(0, points.shape[0], step):
         p = points[s : s + step]
-        pi, fi = _pairs(p, lo3, hi3, 3)
-        np.logical_or.at(on, s + pi[_on_faces(p[pi], tri[fi])], True)
-        pi, fi = _pairs(p, lo3[flat], hi3[flat], 2)
+        pi, fi = every.pairs(p, 3)
+        hit = _on_faces(p[pi], tri[fi])
+        on.append((s + pi[hit], fi[hit]))
+        pi, fi = lying.pairs(p, 2)
         fi = flat[fi]
         q, t, o = p[pi], tri[fi], np.sign(area[fi])
         px, py = q[:, 0], q[:, 1]
@@ -112,10 +199,17 @@ def points_in_shell(
         for j in range(3):
             u, v = t[:, j], t[:, (j + 1) % 3]
             inside &= _edge_sign(u[:, 0], u[:, 1], v[:, 0], v[:, 1], px, py) == o
-        pi, q, t, o = pi[inside], q[inside], t[inside], o[inside]
+        pi, fi, q, t, o = pi[inside], fi[inside], q[inside], t[inside], o[inside]
         above = _det(t, q) * o < 0  # the face is above the point
-        np.add.at(crossings, s + pi[above], 1)
-    return np.where(on, ON_SURFACE, crossings % 2)
+        cross.append((s + pi[above], fi[above]))
+
+    def joined(parts):  # type: ignore[no-untyped-def]
+        if not parts:
+            return np.empty(0, np.int64), np.empty(0, np.int64)
+        return (np.concatenate([x for x, _ in parts]).astype(np.int64),
+                np.concatenate([y for _, y in parts]).astype(np.int64))
+
+    return joined(on), joined(cross)
 
 
 def _samples(v: NDArray[np.int64]) -> NDArray[np.int64]:
@@ -201,18 +295,39 @@ def _parents(
     pa, pb = _box_pairs(lo, hi)
     same = ((lo[pa] == lo[pb]) & (hi[pa] == hi[pb])).all(axis=1)
     pa, pb = pa[~same], pb[~same]
+    if pa.shape[0] == 0:
+        return parent_of
     size = (hi - lo).astype(np.float64).prod(axis=1)
     by = np.lexsort((size[pb], pa))  # for each shell, smallest container first
-    parent = np.full(ids.shape[0], -1, dtype=np.int64)
-    for i, j in zip(pa[by].tolist(), pb[by].tolist(), strict=True):
-        if parent[i] >= 0:
+    pa, pb = pa[by], pb[by]
+    # every candidate pair is tested, a container's pairs in one call, and first
+    # with one sample each: a pair whose first sample is outside fails whatever
+    # the others (400 concentric frames took 46 s, one pair and 16 samples at
+    # a time)
+    inner = np.unique(pa)
+    samples = dict(zip(inner.tolist(), (_samples(vertices[np.unique(
+        faces[order[starts[ids[i]] : starts[ids[i] + 1]]])]) for i in inner),
+        strict=True))
+    holds = np.zeros(pa.shape[0], dtype=bool)
+    by_container = np.argsort(pb, kind="stable")
+    for group in np.split(by_container, np.flatnonzero(np.diff(pb[by_container])) + 1):
+        b = ids[pb[group[0]]]
+        tri = corner[starts[b] : starts[b + 1]]
+        r0 = points_in_shell(np.stack([samples[i][0] for i in pa[group].tolist()]), tri)
+        group = group[r0 != 0]
+        if not group.size:
             continue
-        a, b = ids[i], ids[j]
-        fa = faces[order[starts[a] : starts[a + 1]]]
-        r = points_in_shell(_samples(vertices[np.unique(fa)]),
-                            corner[starts[b] : starts[b + 1]])
-        if (r == 1).any() and not (r == 0).any():
-            parent[i] = j
+        rest = [samples[i][1:] for i in pa[group].tolist()]
+        r = points_in_shell(np.concatenate(rest), tri)
+        at = np.cumsum([0, *(len(x) for x in rest)])[:-1]
+        has = np.array([len(x) > 0 for x in rest])
+        inside = (r0[r0 != 0] == 1) | (has & np.logical_or.reduceat(r == 1, at))
+        outside = has & np.logical_or.reduceat(r == 0, at)
+        holds[group] = inside & ~outside
+    # each shell's parent: its first candidate (the smallest) that holds it
+    first = np.full(ids.shape[0], pa.shape[0], dtype=np.int64)
+    np.minimum.at(first, pa[holds], np.flatnonzero(holds))
+    parent = np.where(first < pa.shape[0], pb[np.minimum(first, pa.shape[0] - 1)], -1)
     parent_of[ids] = np.where(parent >= 0, ids[np.maximum(parent, 0)], -1)
     return parent_of
 

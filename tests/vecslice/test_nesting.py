@@ -204,3 +204,82 @@ def test_many_separate_closed_shells():
             cubes.append(c)
     m = vs.load_mesh(trimesh.util.concatenate(cubes))
     assert m.n_bodies == 1600 and m.load_info.cavities_kept == 0
+
+
+# ---------------------------------------------------------------------------
+# many shells (audit s25 hang D1: 400 concentric frames took 46 s to repair,
+# 1,000 cubes inside a fine sphere 83 s)
+# ---------------------------------------------------------------------------
+
+
+def test_box_pairs_are_those_of_all_against_all():
+    from vecslice.nesting import _Boxes
+
+    rng = np.random.default_rng(7)
+    for trial in range(20):
+        n = int(rng.integers(65, 400))
+        lo = rng.integers(-1000, 1000, (n, 3))
+        size = rng.integers(0, 60, (n, 3))
+        if trial % 4 == 0:  # a fan: large boxes from the centre (the grid coarsens)
+            size[: n // 2] = rng.integers(500, 2000, (n // 2, 3))
+        hi = lo + size
+        p = np.concatenate([rng.integers(-1100, 1100, (300, 3)), lo[:20], hi[:20]])
+        for dims in (2, 3):
+            pi, bi = _Boxes(lo, hi).pairs(p, dims)
+            assert _Boxes(lo, hi).grid
+            near = ((p[:, None, :dims] >= lo[None, :, :dims])
+                    & (p[:, None, :dims] <= hi[None, :, :dims])).all(axis=2)
+            assert sorted(zip(pi.tolist(), bi.tolist())) == sorted(
+                zip(*(x.tolist() for x in np.nonzero(near))))
+
+
+def test_points_in_a_fine_sphere():
+    v, f = sphere(10_000, sub=3)  # 1,280 faces: found through the grid
+    tri = np.round(v).astype(np.int64)[f]
+    rng = np.random.default_rng(3)
+    p = rng.integers(-12_000, 12_000, (2000, 3))
+    r = np.linalg.norm(p, axis=1)
+    got = points_in_shell(p, tri)
+    assert (got[r < 9_000] == 1).all() and (got[r > 10_001] == 0).all()
+    corners = np.unique(tri.reshape(-1, 3), axis=0)[:50]
+    assert (points_in_shell(corners, tri) == ON_SURFACE).all()
+
+
+def _frames(n):
+    parts = []
+    for k in range(1, n + 1):
+        m = trimesh.creation.annulus(r_min=k, r_max=k + 0.5, height=1, sections=4)
+        parts.append(m)
+    return trimesh.util.concatenate(parts)
+
+
+def test_concentric_frames_take_one_sample_per_pair(monkeypatch):
+    """Every frame's box holds the smaller frames', none holds another: each
+    candidate pair fails on its first sample, tested with its container's other
+    pairs in one call."""
+    from vecslice import nesting
+
+    seen = []
+    real = nesting.points_in_shell
+    monkeypatch.setattr(nesting, "points_in_shell",
+                        lambda p, t: seen.append(len(p)) or real(p, t))
+    n = 60
+    m = vs.load_mesh(_frames(n))
+    assert m.n_bodies == n and m.load_info.cavities_kept == 0
+    assert len(seen) == n - 1  # one call per container
+    assert sum(seen) == n * (n - 1) // 2  # one sample per candidate pair
+
+
+def test_cubes_inside_a_fine_sphere():
+    v, f = sphere(50_000, sub=4)
+    cubes = []
+    rng = np.random.default_rng(0)
+    for c in rng.uniform(-25_000, 25_000, (200, 3)):
+        b = trimesh.creation.box((500, 500, 500))
+        b.apply_translation(c)
+        cubes.append((b.vertices, b.faces))
+    mesh = shells((v, f), *cubes)
+    shell = np.repeat(np.arange(201), [len(f)] + [12] * 200)
+    depth = nesting_depth(np.round(mesh.vertices).astype(np.int64),
+                          np.asarray(mesh.faces), shell, np.ones(201, dtype=bool))
+    assert depth.tolist() == [0] + [1] * 200
