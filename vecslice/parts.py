@@ -33,6 +33,7 @@ __all__ = ["apply_slicing_tolerance", "make_parts"]
 
 _BATCH_LAYERS = 1024  # layers per manifold3d batch (see _batches)
 _MAX_PAIRS = 10_000_000  # (hole, outline) box tests before falling back to decompose
+_PAIR_CHUNK = 1 << 18  # (hole, outline) pairs listed at a time (about 16 MB)
 _KEY_SHIFT = np.int64(2**31)  # |y| < 2**30, so x * 2**31 + y orders like (x, y)
 
 
@@ -362,12 +363,22 @@ def _label_parts(
         np.maximum.reduceat(sub[:, 0], sub_starts),
         np.maximum.reduceat(sub[:, 1], sub_starts),
     ], axis=1)
-    hole_of_pair = np.repeat(np.arange(holes.shape[0]), cnt)
-    h = holes[hole_of_pair]
-    o = outs[np.arange(hole_of_pair.shape[0]) - np.repeat(_offsets(cnt)[:-1] - lo, cnt)]
-    ok = ((box[o, :2] <= box[h, :2]) & (box[o, 2:] >= box[h, 2:])).all(axis=1)
-    n_cand = np.bincount(hole_of_pair[ok], minlength=holes.shape[0])
-    pid[h[ok]] = o[ok]
+    n_cand = np.zeros(holes.shape[0], dtype=np.int64)
+    # the pairs of consecutive holes, _PAIR_CHUNK at a time: a plate of 100
+    # washers over 1,000 layers listed 10**7 pairs at once (657 MB)
+    ends = np.cumsum(cnt)
+    cuts = np.searchsorted(ends, np.arange(_PAIR_CHUNK, int(ends[-1]), _PAIR_CHUNK))
+    for a, b in itertools.pairwise([0, *np.unique(cuts + 1).tolist(), holes.shape[0]]):
+        if a >= b:
+            continue
+        c = cnt[a:b]
+        hole_of_pair = a + np.repeat(np.arange(b - a), c)
+        h = holes[hole_of_pair]
+        o = outs[np.arange(hole_of_pair.shape[0])
+                 - np.repeat(_offsets(c)[:-1] - lo[a:b], c)]
+        ok = ((box[o, :2] <= box[h, :2]) & (box[o, 2:] >= box[h, 2:])).all(axis=1)
+        n_cand += np.bincount(hole_of_pair[ok], minlength=holes.shape[0])
+        pid[h[ok]] = o[ok]
     return pid, np.unique(layer[holes[n_cand != 1]])
 
 
