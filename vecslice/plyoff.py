@@ -109,6 +109,9 @@ def _first_non_number(body: bytes) -> tuple[int, bytes]:
     starts = np.flatnonzero(~blank & np.concatenate([[True], blank[:-1]]))
     ends = np.flatnonzero(~blank & np.concatenate([blank[1:], [True]])) + 1
     lo, hi = 0, len(starts)  # the first bad token is in [lo, hi)
+    nul = np.flatnonzero(c == 0)  # numpy's parser stops at a NUL, as at an end
+    if nul.size:
+        hi = int(np.searchsorted(starts, nul[0], side="right"))
     while hi - lo > 1:
         mid = (lo + hi) // 2
         if _mf()._numbers(body[starts[lo]:ends[mid - 1]], np.float64, mid - lo) is None:

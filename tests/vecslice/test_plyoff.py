@@ -429,3 +429,13 @@ def test_header_lines_end_at_line_feeds_only(tmp_path):
                        r"'e2' and 1 'e3' and 29,996 more elements") as info:
         vs.load_mesh(write(tmp_path, "many.ply", data))
     assert len(str(info.value)) < 400
+
+
+def test_a_nul_byte_in_the_body_is_named_where_it_is(tmp_path):
+    """numpy's parser stops at a NUL as at the end: the halving search named a
+    later, good token."""
+    rows = [" ".join(map(str, p)) for p in TET]
+    rows[2] = "0 10\x000 0"
+    data = ascii_ply(XYZ, rows, [" ".join(map(str, [3, *t])) for t in TET_F])
+    refused(write(tmp_path, "z.ply", data),
+            r"z\.ply' is corrupt: '10\\x000' where a number should be \(line 12\)")
