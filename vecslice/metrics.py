@@ -31,7 +31,7 @@ from vecslice.paths import LayerPaths
 from vecslice.ragged import adopt, freeze
 from vecslice.settings import SliceSettings
 from vecslice.staircase import VolumeStats, volume_error
-from vecslice.storage import SlicedModel
+from vecslice.storage import SlicedModel, check_model
 
 __all__ = [
     "ContourErrors",
@@ -50,10 +50,7 @@ __all__ = [
 
 def model_loops(model: SlicedModel) -> LayerPaths:
     """The rings of a :class:`SlicedModel` (outlines and holes) as a LayerPaths."""
-    if not isinstance(model, SlicedModel):
-        raise InputTypeError(
-            f"`model` must be a vecslice.SlicedModel; got {type(model).__name__}"
-        )
+    check_model(model)
     layer_rings = model.part_offsets[model.layer_offsets]
     return LayerPaths._trusted(model.coords, model.ring_offsets, layer_rings.copy())
 

@@ -13,6 +13,7 @@ from vecslice.errors import InputTypeError, SettingsError
 from vecslice.interrupt import keyboard_interrupts
 from vecslice.paths import LayerPaths, Paths
 from vecslice.storage import SlicedModel
+from vecslice.units import power_of_ten
 
 __all__ = ["MoveStats", "move_stats"]
 
@@ -30,9 +31,8 @@ def _check_number(value: object, name: str, unit: str, *, zero: bool) -> float:
     try:
         v = float(value)
     except OverflowError:  # a Python int beyond float range (10**400)
-        digits = int(abs(int(value)).bit_length() * 0.30103)
         raise SettingsError(f"`{name}` must be {want} ({unit}); got "
-                            f"{'-' if value < 0 else ''}10**{digits} or so") from None
+                            f"{power_of_ten(value)}") from None
     if not np.isfinite(v) or v < 0 or (v == 0 and not zero):
         raise SettingsError(f"`{name}` must be {want} ({unit}); got {v!r}")
     return v

@@ -22,7 +22,8 @@ from typing import IO, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vecslice.svg import SVG_STYLE, check_model, layer_index
+from vecslice.storage import check_model
+from vecslice.svg import SVG_STYLE, layer_index
 
 __all__ = ["layer", "layer_vertex_counts", "save_layer", "stack", "stats"]
 

@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 from vecslice.errors import InputTypeError
 from vecslice.interrupt import keyboard_interrupts
-from vecslice.storage import SlicedModel
+from vecslice.storage import SlicedModel, check_model
 
 __all__ = ["VolumeStats", "volume_error"]
 
@@ -197,10 +197,7 @@ def volume_error(
     """
     from vecslice.mesh import Mesh
 
-    if not isinstance(model, SlicedModel):
-        raise InputTypeError(
-            f"`model` must be a vecslice.SlicedModel; got {type(model).__name__}"
-        )
+    check_model(model)
     if not isinstance(mesh, Mesh):
         raise InputTypeError(
             f"`mesh` must be a vecslice.Mesh; got {type(mesh).__name__}"

@@ -357,6 +357,18 @@ class SlicedModel(PartsLayout):
         )
 
 
+def check_model(model: object, name: str = "model") -> None:
+    """Refuse anything but a :class:`SlicedModel` (InputTypeError naming ``name``).
+
+    A path gets a hint: a saved model is read with :func:`load_sliced`.
+    """
+    if not isinstance(model, SlicedModel):
+        hint = (" (read a saved model with vs.load_sliced(path))"
+                if isinstance(model, (str, os.PathLike)) else "")
+        raise InputTypeError(f"`{name}` must be a vecslice.SlicedModel; got "
+                             f"{type(model).__name__}{hint}")
+
+
 @keyboard_interrupts
 def load_sliced(
     path: str | os.PathLike[str], *, max_bytes: int = MAX_BYTES

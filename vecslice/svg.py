@@ -7,7 +7,6 @@ written as integers (y negated, since SVG's y axis points down), and the documen
 
 from __future__ import annotations
 
-import os
 from typing import Any
 from xml.sax.saxutils import escape
 
@@ -23,18 +22,6 @@ SVG_STYLE = {
     "background": "#ffffff",
 }
 """Default colours: part fill, part outline, open chains (warning), background."""
-
-
-def check_model(model: object) -> None:
-    """Refuse anything but a :class:`~vecslice.storage.SlicedModel` (InputTypeError)."""
-    from vecslice.errors import InputTypeError
-    from vecslice.storage import SlicedModel
-
-    if not isinstance(model, SlicedModel):
-        hint = (" (read a saved model with vs.load_sliced(path))"
-                if isinstance(model, (str, os.PathLike)) else "")
-        raise InputTypeError(f"`model` must be a vecslice.SlicedModel; got "
-                             f"{type(model).__name__}{hint}")
 
 
 def layer_index(model: Any, i: object, name: str = "layer") -> int:
@@ -117,6 +104,7 @@ def layer_svg(
     (True, True)
     """
     from vecslice._validate import check_int
+    from vecslice.storage import check_model
 
     check_model(model)
     k = layer_index(model, i)

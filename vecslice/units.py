@@ -60,6 +60,15 @@ def to_microns(mm: ArrayLike, *, name: str = "mm") -> NDArray[np.int64]:
     return um.astype(np.int64)
 
 
+def power_of_ten(value: object) -> str:
+    """A number beyond float range for a message: ``about 10**400`` (or ``-10**400``).
+
+    Its digits are not written out: a Python int may have millions of them.
+    """
+    n = int(value)  # type: ignore[call-overload]
+    return f"about {'-' if n < 0 else ''}10**{int(abs(n).bit_length() * 0.30103)}"
+
+
 def _overflows(value: object) -> bool:
     try:
         float(value)  # type: ignore[arg-type]
@@ -87,10 +96,9 @@ def _as_float(mm: ArrayLike, name: str) -> NDArray[np.float64]:
         except OverflowError:  # a Python int beyond float range (10**400)
             flat = a.ravel()
             i = next(k for k, v in enumerate(flat) if _overflows(v))
-            digits = int(int(abs(flat[i])).bit_length() * 0.30103)
             raise InputValueError(
                 f"`{name}` must be below {COORD_LIMIT / 1000:g} mm in magnitude "
-                f"(2**30 µm); got about 10**{digits} at flat index {i}"
+                f"(2**30 µm); got {power_of_ten(flat[i])} at flat index {i}"
             ) from None
         except (TypeError, ValueError) as exc:
             raise InputTypeError(

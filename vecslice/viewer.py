@@ -134,7 +134,7 @@ def viewer_html(model: Any, *, title: str = "vecslice") -> str:
     (True, True)
     """
     from vecslice.errors import InputTypeError
-    from vecslice.svg import check_model
+    from vecslice.storage import check_model
 
     check_model(model)
     if not isinstance(title, str):
