@@ -13,7 +13,8 @@ or -1 for a moved one), and both metrics use it to be fast, never to be right:
   edges from the correspondence bound every vertex in one linear pass; the vertex
   with the largest bound is measured against *all* edges, then only vertices whose
   bound still exceeds the best exact value. The result is exactly the maximum over
-  all vertex-edge pairs (the brute force), whatever the correspondence.
+  all vertex-edge pairs (the brute force), whatever the correspondence. Without
+  one, walks along the other ring give the bounds (``planar.directed_distance``).
 * **XOR area** ``∫ |w_raw - w_simp| dA`` (winding numbers; the area of the
   symmetric difference for simple rings). The runs between consecutive anchored
   vertices bound pieces (``pieces``) that sum to ``raw - simp`` as cycles. A
@@ -63,8 +64,8 @@ from .planar import (
     _edge_distance,
     _near_edge,
     _near_edge_distance,
-    _to_ring,
     _to_ring_within,
+    directed_distance,
     winding_area,
 )
 
@@ -585,15 +586,6 @@ def _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub):
     return best
 
 
-@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64), inline="always")
-def _all_pairs(ac, a0, na, bc, b0, nb):
-    """Largest distance from a vertex of ring a to ring b, over all pairs."""
-    best = 0.0
-    for i in range(na):
-        best = max(best, _to_ring(ac[a0 + i, 0], ac[a0 + i, 1], bc, b0, nb))
-    return best
-
-
 @kernel(types.Tuple((F64, F64, F64, B1))(I64_2D, I64, I64, I64_2D, I64, I64, _W1,
                                         _W1, _WF, _WF, _W2))
 def _compare_one(rc, r0, n, sc, s0, m, anchor, wi, wf, ub, e):
@@ -609,8 +601,9 @@ def _compare_one(rc, r0, n, sc, s0, m, anchor, wi, wf, ub, e):
                 npc += 1
                 if first < 0:
                     first = j
-    if npc < 2:  # no usable correspondence: all pairs, and the sweep
-        return (_all_pairs(rc, r0, n, sc, s0, m), _all_pairs(sc, s0, m, rc, r0, n),
+    if npc < 2:  # no usable correspondence: bounds from walks, and the sweep
+        return (directed_distance(rc, r0, n, sc, s0, m, ub),
+                directed_distance(sc, s0, m, rc, r0, n, ub),
                 _ring_area(rc, r0, n, sc, s0, m, e), False)
     total = _runs_pass(rc, r0, n, sc, s0, m, anchor, first, wi, wf, e, npc)
     d1 = _raw_to_simp(rc, r0, n, sc, s0, m, wi, wf, npc)

@@ -149,6 +149,65 @@ def _to_ring_within(px, py, c, start, n, bound):
     return best
 
 
+_WALK = 64  # most steps of directed_distance's walk per vertex
+_WF = types.float64[::1]
+
+
+@kernel(F64(I64_2D, I64, I64, I64_2D, I64, I64, _WF))
+def directed_distance(ac, a0, na, bc, b0, nb, ub):
+    """Largest distance from a vertex of ring a to ring b, without correspondence.
+
+    Bit for bit the maximum over all vertex-edge pairs of
+    :func:`_point_segment`.
+
+    A walk bounds every vertex: from the previous vertex's edge, along b's edges
+    while the distance decreases (at most ``_WALK`` steps), so a vertex near the
+    previous one's edge costs a few distances (the first vertex's edge is found
+    over all edges). Then vertices are measured against all edges
+    (:func:`_to_ring_within`), largest bound first, until no bound exceeds the
+    best exact distance: a vertex whose bound does not cannot raise the maximum.
+    Linear plus a sort when the bounds are tight (a ring against its reversal, a
+    shifted copy, another tool's output); all pairs at worst. ``ub`` is scratch
+    of length >= ``na``.
+    """
+    if na == 0 or nb == 0:
+        best = 0.0
+        for i in range(na):
+            best = max(best, _to_ring(ac[a0 + i, 0], ac[a0 + i, 1], bc, b0, nb))
+        return best
+    k = _near_edge(ac[a0, 0], ac[a0, 1], bc, b0, nb, 0, nb)[2]
+    top = 0
+    for i in range(na):
+        px = ac[a0 + i, 0]
+        py = ac[a0 + i, 1]
+        d = _edge_distance(px, py, bc, b0, nb, k)
+        for _ in range(_WALK):
+            kn = k + 1 if k + 1 < nb else 0
+            dn = _edge_distance(px, py, bc, b0, nb, kn)
+            if dn >= d:
+                kn = k - 1 if k > 0 else nb - 1
+                dn = _edge_distance(px, py, bc, b0, nb, kn)
+                if dn >= d:
+                    break
+            k = kn
+            d = dn
+        ub[i] = d
+        if d > ub[top]:
+            top = i
+    bound = ub[top]
+    best = _to_ring_within(ac[a0 + top, 0], ac[a0 + top, 1], bc, b0, nb, bound)
+    if best == bound:  # every other bound is <= it
+        return best
+    order = np.argsort(-ub[:na])
+    for t in range(na):
+        i = order[t]
+        if ub[i] <= best:
+            break
+        best = max(best, _to_ring_within(ac[a0 + i, 0], ac[a0 + i, 1], bc, b0, nb,
+                                         ub[i]))
+    return best
+
+
 @kernel(I64(I64, I64, I64, I64, I64, I64), inline="always")
 def _orient(ax, ay, bx, by, cx, cy):
     """Sign of the turn a -> b -> c (exact)."""

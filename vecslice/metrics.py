@@ -216,6 +216,9 @@ def contour_errors(raw: LayerPaths, simplified: LayerPaths) -> ContourErrors:
     vertices moved onto extensions of raw edges) gives every vertex a candidate
     bound in linear time; only vertices whose bound could be the maximum are
     measured against the whole ring, so the result equals the brute force.
+    Rings without that correspondence (a ring against its reversal, another
+    tool's output) get their bounds from short walks along the other ring, and
+    the same exact pass follows (all pairs only at worst).
     It measures from vertices: the widest gap between two rings can also lie
     mid-edge (a raw vertex dropped from a thin sliver leaves the simplified edge
     far from the raw ring between vertices), so the deviation is a lower bound
