@@ -1,9 +1,13 @@
 """Scalar integer geometry helpers, bit-exact with CuraEngine's ``linearAlg2D``.
 
-All functions take and return int64 scalars (µm). Integer arithmetic wraps like
-int64 machine arithmetic (numba does not check overflow); under the documented
-preconditions (|coordinates| < 2**31) nothing overflows except where CuraEngine's
-own int64 arithmetic overflows too, and then both wrap the same way.
+All functions take and return int64 scalars (µm). Products and sums that can
+overflow under the documented preconditions (|coordinates| < 2**31) wrap like
+int64 machine arithmetic, as CuraEngine's own int64 arithmetic does there. They
+are written with :func:`wmul`, :func:`wadd` and :func:`wsize2`: numba compiles
+signed ``*`` and ``+`` with LLVM's no-signed-wrap flag, so an overflowing plain
+``d * d <= 25`` may be folded as if the square could not wrap, and the compiled
+kernel would then differ from the same code interpreted
+(``NUMBA_DISABLE_JIT=1``) and from the wrap.
 
 Conventions reproduced exactly (see ``spec/SIMPLIFY.md``):
 
@@ -16,7 +20,7 @@ Conventions reproduced exactly (see ``spec/SIMPLIFY.md``):
 """
 
 import numpy as np
-from numba import types
+from numba import config, types
 
 from ._jit import kernel
 from ._types import B1, I64
@@ -27,6 +31,43 @@ INT32_MAX = 2147483647
 # |float32 product| beyond this cannot give an in-range intersection (|a| < 2**31)
 _F32_LIMIT = np.float32(2.0**40)
 
+
+
+if config.DISABLE_JIT:  # plain Python (coverage runs): Python ints, wrapped
+    def _wrap(x):
+        return np.int64(((int(x) + 2**63) % 2**64) - 2**63)
+
+    def wmul(a, b):
+        """``a * b`` in int64, wrapping on overflow."""
+        return _wrap(int(a) * int(b))
+
+    def wadd(a, b):
+        """``a + b`` in int64, wrapping on overflow."""
+        return _wrap(int(a) + int(b))
+
+    def wsize2(x, y):
+        """``x*x + y*y`` in int64, wrapping on overflow."""
+        return _wrap(int(x) * int(x) + int(y) * int(y))
+else:
+    @kernel(inline="always")
+    def wmul(a, b):
+        """``a * b`` in int64, wrapping on overflow.
+
+        Unsigned operations carry no no-wrap flag; the conversions are bit casts.
+        """
+        return np.int64(np.uint64(a) * np.uint64(b))
+
+    @kernel(inline="always")
+    def wadd(a, b):
+        """``a + b`` in int64, wrapping on overflow."""
+        return np.int64(np.uint64(a) + np.uint64(b))
+
+    @kernel(inline="always")
+    def wsize2(x, y):
+        """``x*x + y*y`` in int64, wrapping on overflow."""
+        ux = np.uint64(x)
+        uy = np.uint64(y)
+        return np.int64(ux * ux + uy * uy)
 
 
 @kernel(I64(I64, I64))
@@ -41,13 +82,13 @@ def tdiv(a, b):
 @kernel(I64(I64, I64))
 def vsize2(x, y):
     """Squared length ``x*x + y*y`` (int64, wrapping)."""
-    return x * x + y * y
+    return wsize2(x, y)
 
 
 @kernel(I64(I64, I64))
 def vsize(x, y):
     """Length rounded half to even: ``llrint(sqrt(double(x*x + y*y)))``."""
-    s = x * x + y * y
+    s = wsize2(x, y)
     if s < 0:
         return INT64_MIN  # llrint(NaN) on x86-64
     return np.int64(np.rint(np.sqrt(np.float64(s))))
@@ -62,9 +103,9 @@ def dist_from_line(px, py, ax, ay, bx, by):
     ab = vsize(bx - ax, by - ay)
     if ab == 0:
         return vsize(px - ax, py - ay)
-    area2 = (px - bx) * (py - ay) + (ax - px) * (py - by)
+    area2 = wadd(wmul(px - bx, py - ay), wmul(ax - px, py - by))
     if area2 < 0:
-        area2 = -area2
+        area2 = wmul(area2, -1)
     return np.int64(np.float64(area2) / np.float64(ab))
 
 
@@ -72,7 +113,7 @@ def dist_from_line(px, py, ax, ay, bx, by):
 def dist2_from_line(px, py, ax, ay, bx, by):
     """``dist_from_line(p, a, b) ** 2`` (always a perfect square)."""
     d = dist_from_line(px, py, ax, ay, bx, by)
-    return d * d
+    return wmul(d, d)
 
 
 @kernel(I64(I64, I64, I64, I64, I64, I64))
@@ -88,19 +129,15 @@ def dist2_from_segment(ax, ay, bx, by, cx, cy):
     abx = bx - ax
     aby = by - ay
     if acs == 0:
-        return abx * abx + aby * aby
-    ax_len = tdiv(abx * acx + aby * acy, acs)
+        return wsize2(abx, aby)
+    ax_len = tdiv(wadd(wmul(abx, acx), wmul(aby, acy)), acs)
     if ax_len < 0:
-        return abx * abx + aby * aby
+        return wsize2(abx, aby)
     if ax_len > acs:
-        dx = bx - cx
-        dy = by - cy
-        return dx * dx + dy * dy
-    projx = tdiv(acx * ax_len, acs)
-    projy = tdiv(acy * ax_len, acs)
-    dx = abx - projx
-    dy = aby - projy
-    return dx * dx + dy * dy
+        return wsize2(bx - cx, by - cy)
+    projx = tdiv(wmul(acx, ax_len), acs)
+    projy = tdiv(wmul(acy, ax_len), acs)
+    return wsize2(abx - projx, aby - projy)
 
 
 @kernel(

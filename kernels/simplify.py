@@ -28,7 +28,7 @@ given, satisfy |w| < 2**30.
 """
 
 import numpy as np
-from numba import types
+from numba import config, types
 from numba.cpython.unsafe.numbers import trailing_zeros
 
 from ._jit import kernel
@@ -38,7 +38,16 @@ from .geometry import (
     line_line_intersection,
     tdiv,
     vsize,
+    wadd,
+    wmul,
+    wsize2,
 )
+
+if config.DISABLE_JIT:  # numba's intrinsic has no plain-Python body
+    def trailing_zeros(x):
+        """Index of the lowest set bit of a non-zero int64."""
+        u = int(x) & (2**64 - 1)
+        return (u & -u).bit_length() - 1
 
 INT64_MAX = np.iinfo(np.int64).max
 INT64_MIN = np.iinfo(np.int64).min
@@ -64,11 +73,11 @@ def _area_deviation(bx, by, bw, vx, vy, vw, ax, ay, aw):
     if wd > 1:
         ab_w = tdiv(bw + vw, 2)
         bc_w = tdiv(vw + aw, 2)
-        avg = tdiv(ab * ab_w + bc * bc_w, ac)
-        return abs(ab_w - avg) * ab + abs(bc_w - avg) * bc
+        avg = tdiv(wadd(wmul(ab, ab_w), wmul(bc, bc_w)), ac)
+        return wadd(wmul(abs(ab_w - avg), ab), wmul(abs(bc_w - avg), bc))
     if ab > bc:
-        return wd * bc
-    return wd * ab
+        return wmul(wd, bc)
+    return wmul(wd, ab)
 
 
 @kernel(I64(I64, I64, I64, I64, I64, I64))
@@ -81,14 +90,14 @@ def _dist2_line(px, py, ax, ay, bx, by):
     """
     sx = bx - ax
     sy = by - ay
-    s = sx * sx + sy * sy
+    s = wsize2(sx, sy)
     ab = np.rint(np.sqrt(np.float64(s))) if s >= 0 else np.float64(INT64_MIN)
     if ab == 0.0:
         d = vsize(px - ax, py - ay)
     else:
-        area2 = (px - bx) * (py - ay) + (ax - px) * (py - by)
+        area2 = wadd(wmul(px - bx, py - ay), wmul(ax - px, py - by))
         d = np.int64(np.float64(abs(area2)) / ab)
-    return d * d
+    return wmul(d, d)
 
 
 @kernel(inline="always")
@@ -102,8 +111,8 @@ def _importance(has_w, bx, by, bw, vx, vy, vw, ax, ay, aw, max_res2, max_area):
     if has_w and _area_deviation(bx, by, bw, vx, vy, vw, ax, ay, aw) > max_area:
         return INT64_MAX
     d2 = _dist2_line(vx, vy, bx, by, ax, ay)
-    lb = (bx - vx) * (bx - vx) + (by - vy) * (by - vy)
-    la = (ax - vx) * (ax - vx) + (ay - vy) * (ay - vy)
+    lb = wsize2(bx - vx, by - vy)
+    la = wsize2(ax - vx, ay - vy)
     # unpredictable on noisy input: one select instead of branches
     long_edges = (d2 > MIN_RES2) & (lb > max_res2) & (la > max_res2)
     return INT64_MAX if long_edges else d2
@@ -193,8 +202,8 @@ def _importance_run(px, py, imp, n, max_res2):
 
     Each vertex lies between its index neighbours; the body is branch-free so
     that the loop vectorises. Same values as ``_importance``: in the first pass
-    |coords| < 2**30, so the squared sums cannot wrap, and rint(sqrt) is an
-    integer-valued double already.
+    |coords| < 2**30, so the squared sums cannot wrap (the square of the
+    distance can: ``wmul``), and rint(sqrt) is an integer-valued double already.
     """
     for i in range(1, n - 1):
         bx = px[i - 1]
@@ -212,7 +221,7 @@ def _importance_run(px, py, imp, n, max_res2):
         d = np.int64(np.float64(area2) / max(ab, 1.0))
         d0 = np.int64(np.rint(np.sqrt(np.float64(lb))))  # line of length 0
         d = d0 if ab == 0.0 else d
-        d2 = d * d
+        d2 = wmul(d, d)
         long_edges = (d2 > MIN_RES2) & (lb > max_res2) & (la > max_res2)
         imp[i] = INT64_MAX if long_edges else d2
 
@@ -238,9 +247,9 @@ def _tiny(x0, y0, x1, y1, x2, y2):
     True when the longest squared side among (p1 - p0, p2 - p0, p2 - p1) is below
     25 µm².
     """
-    d1 = (x1 - x0) * (x1 - x0) + (y1 - y0) * (y1 - y0)
-    d2 = (x2 - x0) * (x2 - x0) + (y2 - y0) * (y2 - y0)
-    d3 = (x2 - x1) * (x2 - x1) + (y2 - y1) * (y2 - y1)
+    d1 = wsize2(x1 - x0, y1 - y0)
+    d2 = wsize2(x2 - x0, y2 - y0)
+    d3 = wsize2(x2 - x1, y2 - y1)
     return max(max(d1, d2), d3) < MIN_RES2
 
 
@@ -493,8 +502,8 @@ def simplify_range(coords, widths, ring_offsets, has_w, closed, max_resolution,
                     else:
                         vx = px[i]
                         vy = py[i]
-                        lb = (vx - px[b]) * (vx - px[b]) + (vy - py[b]) * (vy - py[b])
-                        la = (vx - px[a]) * (vx - px[a]) + (vy - py[a]) * (vy - py[a])
+                        lb = wsize2(vx - px[b], vy - py[b])
+                        la = wsize2(vx - px[a], vy - py[a])
                         if lb <= max_res2 and la <= max_res2:
                             moved = -1
                         elif lb <= la:  # the edge before i is short (a tie too)

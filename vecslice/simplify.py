@@ -190,7 +190,10 @@ def simplify(
     InputTypeError
         Float or non-numeric coordinates, or ``closed`` not a bool.
     InputValueError
-        Wrong shapes, coordinates with |c| >= 2**30 µm, negative thresholds.
+        Wrong shapes, coordinates with |c| >= 2**30 µm, negative thresholds; or
+        a result vertex beyond 2**30 µm (the short-edge rule moves a vertex up
+        to ``max_deviation`` off its edge: input near the limit with a large
+        ``max_deviation``).
 
     Notes
     -----
@@ -201,6 +204,8 @@ def simplify(
     ``max_deviation``, and a result below 3 (polygon) or 2 (polyline) vertices, or
     of that size but with every side under 5 µm, is empty. The result never has
     more vertices than the input, and simplifying it again changes nothing.
+    Where CuraEngine's int64 arithmetic overflows (parts about a kilometre
+    across), it wraps here as there.
 
     Examples
     --------

@@ -319,3 +319,52 @@ def test_remove_degenerate_vertices_examples(ring, want):
     out, new_offs = remove_degenerate_vertices(coords, offs)
     assert out.tolist() == want
     assert new_offs.tolist() == [0, len(want)]
+
+
+# int64 overflow at the coordinate limit wraps, as the spec's int64 arithmetic
+# does (numba's signed * and + would let LLVM assume it cannot happen)
+_WRAP_CASES = [
+    # the neighbours' line is 1 µm long: d = 3221224468, and d*d wraps negative
+    ([(-1, 1073741822), (1073740823, -1073741822), (0, 1073741823)], 1000, 5),
+    # a removal moves a vertex beyond 2**30; its edges' squared lengths wrap
+    ([(-1073741822, 1073741822), (-3, 1073740823), (1073741822, -1073741822),
+      (1073740823, -1073741822), (-1073740823, 1073740823)], 5000, 10000),
+]
+
+
+@pytest.mark.parametrize(("pts", "res", "dev"), _WRAP_CASES)
+def test_overflow_wraps_as_the_reference(pts, res, dev):
+    want = ref.simplify(pts, closed=False, max_resolution=res, max_deviation=dev)
+    got = _run(np.array(pts, np.int64), False, res, dev, 50000)
+    assert [list(map(int, q)) for q in got] == [list(q) for q in want]
+    assert len(want) in (0, 2)  # the wrap decides: without it V is kept
+
+
+def test_interpreted_kernel_gives_the_compiled_result(tmp_path):
+    # NUMBA_DISABLE_JIT=1 (coverage runs) runs the kernel bodies as Python: the
+    # bucket queue (max_deviation < 65) and the wrapping products must work there
+    import json
+    import subprocess
+    import sys
+
+    rng = np.random.default_rng(7)
+    ang = np.sort(rng.uniform(0, 2 * np.pi, 300))
+    rad = 20000 + rng.integers(-40, 41, 300)
+    ring = np.rint(np.stack([rad * np.cos(ang), rad * np.sin(ang)], 1)).astype(np.int64)
+    cases = [(ring.tolist(), True, 500, 25)] + [(p, False, r, d) for p, r, d in _WRAP_CASES]
+    script = tmp_path / "interp.py"
+    script.write_text(
+        "import json, sys, warnings\nimport numpy as np\nimport vecslice as vs\n"
+        "warnings.simplefilter('ignore')\n"
+        "out = [vs.simplify(np.array(p, np.int64), closed=c, max_resolution=r,"
+        " max_deviation=d).tolist() for p, c, r, d in json.load(sys.stdin)]\n"
+        "print(json.dumps(out))\n")
+    env = {**__import__("os").environ, "NUMBA_DISABLE_JIT": "1"}
+    done = subprocess.run([sys.executable, str(script)], input=json.dumps(cases),
+                          capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    got = json.loads(done.stdout)
+    import vecslice as vs
+    want = [vs.simplify(np.array(p, np.int64), closed=c, max_resolution=r,
+                        max_deviation=d).tolist() for p, c, r, d in cases]
+    assert got == want and len(want[0]) < 300
