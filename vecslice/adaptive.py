@@ -19,7 +19,7 @@ from vecslice._kernels.adaptive import (
 )
 from vecslice._kernels.adaptive import face_slopes as _face_slopes
 from vecslice._validate import check_int, check_layer_count, check_option
-from vecslice.errors import InputTypeError
+from vecslice.errors import InputTypeError, SettingsError
 from vecslice.interrupt import keyboard_interrupts
 from vecslice.mesh import Mesh
 from vecslice.ragged import freeze
@@ -28,6 +28,7 @@ from vecslice.settings import SliceSettings
 __all__ = ["FRAMES", "adaptive_layer_heights", "allowed_heights", "face_slopes"]
 
 FRAMES = ("mesh", "bed")
+MAX_HEIGHTS = 2**20  # longest list allowed_heights gives (8 MiB)
 
 Frame = Literal["mesh", "bed"]
 Schedule = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]
@@ -68,7 +69,9 @@ def allowed_heights(layer_height: int, variation: int, step: int) -> NDArray[np.
     Raises
     ------
     SettingsError
-        If a value is out of range (the list would be empty or endless).
+        If a value is out of range (the list would be empty or endless), or the
+        list would hold more than ``MAX_HEIGHTS`` (2**20) heights. The schedule
+        itself never lists them: any settings ``SliceSettings`` accepts slice.
 
     Examples
     --------
@@ -79,6 +82,13 @@ def allowed_heights(layer_height: int, variation: int, step: int) -> NDArray[np.
     v = check_int(variation, "adaptive_variation", minimum=0, maximum=2**30)
     s = check_int(step, "adaptive_variation_step", minimum=1, maximum=2**30)
     hmax, hmin = _height_range(base, v, s)
+    count = (hmax - hmin) // s + 1
+    if count > MAX_HEIGHTS:
+        raise SettingsError(
+            f"layer_height={base}, adaptive_variation={v} and "
+            f"adaptive_variation_step={s} µm allow {count} heights; "
+            f"allowed_heights lists at most {MAX_HEIGHTS} (a larger step lists "
+            "fewer; adaptive_layer_heights works without the list)")
     return np.arange(hmax, hmin - 1, -s, dtype=np.int64)
 
 

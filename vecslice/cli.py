@@ -573,6 +573,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         text = " ".join(str(exc).split())  # one line
         say(f"vecslice: error: {text}", sys.stderr, flush=True)
         return 1
+    except MemoryError as exc:  # numpy's names the size it could not allocate
+        text = " ".join(str(exc).split()) or "no details"
+        say(f"vecslice: error: not enough memory ({text}); slice fewer or thicker "
+            "layers (--layer-height, --max-layers) or a smaller model",
+            sys.stderr, flush=True)
+        return 1
     except UnicodeEncodeError as exc:  # printed by other code than say() (argparse)
         bad = exc.object[exc.start:exc.end]
         say(f"vecslice: error: cannot write {bad!r} in the encoding {exc.encoding!r} "

@@ -138,9 +138,12 @@ def layer_heights(
       layer 1 is usually forced: with the defaults (300 µm, then at most 200 µm
       allowed) it takes the thickest allowed height, 200 µm, whatever the
       geometry; a small first layer instead ramps up one step per layer;
-    * a layer is at most one step thicker than the one below it and at most two
-      steps thinner, so thick layers come back gradually after a shallow region,
-      and a short shallow feature may be passed before the layers have thinned;
+    * a layer is at most one step thicker than the one below it, so thick layers
+      come back gradually after a shallow region; it is usually at most two steps
+      thinner, so a short shallow feature may be passed before the layers have
+      thinned, except that a layer meeting no face (a gap between two bodies,
+      or below a floating model in the bed frame) takes the thinnest height at
+      once, and a first layer thinner than the thinnest height jumps up to it;
     * every layer is cut at its **top** (``slice_z == print_z`` relative to the
       lowest point), in every slicing tolerance; 'middle' only makes each layer
       look at the lower half of its height, and 'inclusive'/'exclusive' still

@@ -111,6 +111,21 @@ def test_allowed_heights_rejects(args, fragment):
         allowed_heights(*args)
 
 
+def test_allowed_heights_refuses_a_list_beyond_its_cap():
+    # values SliceSettings accepts would list 2**31 heights (16 GiB): refused
+    # before any allocation; the largest list allowed is still given
+    with pytest.raises(vs.SettingsError, match=r"allow 2147483648 heights; "
+                       r"allowed_heights lists at most 1048576") as info:
+        allowed_heights(2**30, 2**30, 1)
+    assert isinstance(info.value, ValueError)
+    assert allowed_heights(2**19, 2**19, 1).shape == (2**20,)  # 2**20 .. 1
+    with pytest.raises(vs.SettingsError, match="allow 1048577 heights"):
+        allowed_heights(2**19 + 1, 2**19, 1)
+    s = vs.SliceSettings(layer_height=2**30, adaptive_layers=True,
+                         adaptive_variation=2**30, adaptive_variation_step=1)
+    assert s.adaptive_variation_step == 1  # the schedule itself needs no list
+
+
 def test_bad_arguments():
     mesh = vs.Mesh([[0, 0, 0], [1000, 0, 0], [0, 1000, 1000]], [[0, 1, 2]])
     with pytest.raises(vs.InputTypeError, match=r"`mesh` must be a vecslice\.Mesh"):

@@ -433,3 +433,22 @@ def test_z_is_compared_in_microns(capsys, cube):
         line = error_line(capsys, "preview", "c.npz", "--z", z, "-o", "a.svg")
         assert line.startswith(f"vecslice: error: --z must be a height from 0 to "
                                f"{top:g} mm (the top of the last layer); got ")
+
+
+# --- audit s26: a slice too large for memory is one line, not a traceback -----
+
+
+def test_out_of_memory_is_one_line(capsys, cube, monkeypatch):
+    import numpy as np
+
+    import vecslice.pipeline
+
+    def huge(*args, **kwargs):
+        # what the contour stage meets with a billion-point slice: numpy's own
+        # MemoryError for an allocation far beyond the machine
+        return np.empty((2**45, 2), dtype=np.int64)
+
+    monkeypatch.setattr(vecslice.pipeline, "slice_mesh", huge)
+    line = error_line(capsys, "cube.stl", "-o", "c.npz", before_work=False)
+    assert "not enough memory" in line and "TiB" in line and "--layer-height" in line
+    assert not (cube.parent / "c.npz").exists()
