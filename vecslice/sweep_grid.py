@@ -29,6 +29,8 @@ XY_SETTINGS = (
     "minimum_polygon_circumference", "union_overlapping_volumes",
 )
 """Settings that leave the layer schedule and the raw contours unchanged."""
+_ADAPTIVE_ONLY = ("adaptive_variation", "adaptive_variation_step",
+                  "adaptive_threshold")  # read only with adaptive_layers=True
 
 
 def _sources(meshes: Any) -> list[tuple[str, Any]]:
@@ -185,11 +187,16 @@ def _scales(scale: Any, items: list[tuple[str, Any]]) -> dict[str, float]:
 def _schedule_groups(
     combos: list[SliceSettings],
 ) -> list[list[tuple[int, SliceSettings]]]:
-    """Combinations grouped by everything but the XY settings (the schedule)."""
+    """Combinations grouped by everything but the XY settings (the schedule).
+
+    Without adaptive layers the ``adaptive_*`` settings change nothing either:
+    such combinations share their uniform schedule's raw contours.
+    """
     groups: dict[tuple[Any, ...], list[tuple[int, SliceSettings]]] = {}
     for i, s in enumerate(combos):
+        unused = () if s.adaptive_layers else _ADAPTIVE_ONLY
         key = tuple((k, getattr(s, k)) for k in SliceSettings.option_names()
-                    if k not in XY_SETTINGS)
+                    if k not in XY_SETTINGS and k not in unused)
         groups.setdefault(key, []).append((i, s))
     return list(groups.values())
 

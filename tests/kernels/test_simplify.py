@@ -351,7 +351,8 @@ def test_interpreted_kernel_gives_the_compiled_result(tmp_path):
     ang = np.sort(rng.uniform(0, 2 * np.pi, 300))
     rad = 20000 + rng.integers(-40, 41, 300)
     ring = np.rint(np.stack([rad * np.cos(ang), rad * np.sin(ang)], 1)).astype(np.int64)
-    cases = [(ring.tolist(), True, 500, 25)] + [(p, False, r, d) for p, r, d in _WRAP_CASES]
+    cases = [(ring.tolist(), True, 500, 25)]
+    cases += [(p, False, r, d) for p, r, d in _WRAP_CASES]
     script = tmp_path / "interp.py"
     script.write_text(
         "import json, sys, warnings\nimport numpy as np\nimport vecslice as vs\n"

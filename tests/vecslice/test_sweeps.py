@@ -93,6 +93,18 @@ def test_schedule_groups_share_raw_contours():
     assert [[i for i, _ in g] for g in groups] == [[0, 1, 2], [3, 4, 5]]
 
 
+def test_adaptive_settings_split_groups_only_with_adaptive_layers():
+    # uniform combinations differing only in adaptive_* share one schedule
+    # (audit s26: 8 combinations were 8 tasks instead of 5)
+    combos = [vs.SliceSettings(adaptive_layers=a, adaptive_threshold=t)
+              for a in (False, True) for t in (50, 100, 200, 400)]
+    groups = _schedule_groups(combos)
+    assert [[i for i, _ in g] for g in groups] == [[0, 1, 2, 3], [4], [5], [6], [7]]
+    combos = [vs.SliceSettings(adaptive_variation=v, adaptive_variation_step=st)
+              for v in (50, 100) for st in (5, 10)]
+    assert len(_schedule_groups(combos)) == 1
+
+
 def test_bad_mesh_gives_error_rows(tmp_path, box):
     junk = tmp_path / "junk.stl"
     junk.write_bytes(b"solid nothing here\n" * 3)
