@@ -22,7 +22,6 @@ import stat
 import struct
 import sys
 import threading
-import warnings
 from collections.abc import Callable, Iterator
 from itertools import islice
 from pathlib import Path
@@ -105,17 +104,18 @@ class _ThreadFilter(logging.Filter):
 def _quiet() -> Iterator[None]:
     """Silence trimesh's logger and numpy's floating-point warnings while reading.
 
-    Only records logged by this thread are dropped, numpy's error state is local
-    to the thread, and warning filters are restored on exit: a file that loads
-    prints nothing, and nothing outside the read is changed.
+    Only records logged by this thread are dropped, and numpy's error state is
+    local to the thread: a file that loads prints nothing, and nothing outside
+    the read is changed. The warning filters are left alone: they are global to
+    the process, and ``warnings.catch_warnings`` swapping them is not thread-safe
+    (a load on one thread changed what another thread's warnings did, and
+    concurrent loads could leave the swapped filters behind).
     """
     logger = logging.getLogger("trimesh")
     quiet = _ThreadFilter()
     logger.addFilter(quiet)
     try:
-        with warnings.catch_warnings(), np.errstate(all="ignore"):
-            warnings.simplefilter("ignore", RuntimeWarning)
-            warnings.simplefilter("ignore", DeprecationWarning)
+        with np.errstate(all="ignore"):
             yield
     finally:
         logger.removeFilter(quiet)
@@ -316,14 +316,19 @@ _INT = re.compile(rb"[+-]?\d{1,18}")
 
 
 def _numbers(text: bytes | str, dtype: type, n: int) -> NDArray[Any] | None:
-    """The whitespace-separated numbers of ``text``; None unless exactly ``n``."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", DeprecationWarning)  # unparsed text
-        try:
-            a = np.fromstring(text, dtype=dtype, sep=" ")
-        except (ValueError, DeprecationWarning):
-            return None
-    return a if a.shape[0] == n else None
+    """The whitespace-separated numbers of ``text``; None unless exactly ``n``.
+
+    numpy stops at the first token that is not a number, so a sentinel number
+    appended shows whether it read everything: ``n + 1`` numbers, or fewer.
+    (It then warns, DeprecationWarning, hidden by Python's default filters;
+    the filters are not touched here: they are global to the process.)
+    """
+    sentinel = b" 0" if isinstance(text, bytes) else " 0"
+    try:
+        a = np.fromstring(text + sentinel, dtype=dtype, sep=" ")
+    except (ValueError, DeprecationWarning):  # the latter under -W error
+        return None
+    return a[:n] if a.shape[0] == n + 1 else None
 
 
 def _line_of(data: bytes, offset: int) -> int:

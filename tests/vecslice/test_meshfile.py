@@ -9,6 +9,7 @@ import struct
 import sys
 import tracemalloc
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
@@ -529,3 +530,50 @@ def test_ascii_stl_vertex_before_the_first_facet(tmp_path):
     refused(write(tmp_path, "v.stl", data), r"v\.stl' is corrupt: ASCII STL facets "
             r"must have 3 vertices each; 1 vertices come before the first facet "
             r"\(line 4\)")
+
+
+@pytest.mark.filterwarnings("ignore:deprecated:DeprecationWarning")
+def test_loading_leaves_other_threads_warnings_alone(meshes_dir):
+    """Audit s26 state: reading a file swapped the process-wide warning filters
+    (warnings.catch_warnings, with DeprecationWarning as an error while parsing
+    OBJ numbers), so a DeprecationWarning in another thread raised meanwhile,
+    and concurrent loads could leave the swapped filters behind."""
+    import threading
+
+    obj = meshes_dir / "openscad-nonmanifold-crash.obj"
+    vs.load_mesh(obj)  # warm
+    before = list(warnings.filters)
+    raised, emitted = [], []
+    stop = threading.Event()
+
+    def other():
+        while not stop.is_set():
+            try:
+                warnings.warn_explicit("deprecated", DeprecationWarning, "lib.py", 1,
+                                       module="lib", registry={})
+                emitted.append(1)
+            except DeprecationWarning:
+                raised.append(1)
+
+    t = threading.Thread(target=other)
+    t.start()
+    try:
+        with ThreadPoolExecutor(3) as ex:
+            n = list(ex.map(lambda _: vs.load_mesh(obj).n_faces, range(12)))
+    finally:
+        stop.set()
+        t.join()
+    assert len(set(n)) == 1 and emitted
+    assert raised == []
+    assert warnings.filters == before
+
+
+def test_obj_number_check_needs_no_warning_filter(tmp_path):
+    # a number followed by text in the last vertex token is still refused, also
+    # where DeprecationWarning is an error for the whole process
+    p = write(tmp_path, "t.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0x\nf 1 2 3\n")
+    for mode in ("default", "error"):
+        with warnings.catch_warnings():
+            warnings.simplefilter(mode, DeprecationWarning)
+            with pytest.raises(vs.MeshFileError, match="0x"):
+                vs.load_mesh(p)
