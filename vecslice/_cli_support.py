@@ -89,8 +89,13 @@ def shown_mm(value: Decimal) -> str:
     return f"{f:g}"
 
 
-def mm_to_microns(value: Decimal, flag: str) -> int:
+def mm_to_microns(value: Decimal, flag: str, *, cura: bool = False) -> int:
     """``value`` mm in µm, rounding half away from zero, exactly.
+
+    With ``cura``, as CuraEngine reads a length setting instead
+    (``spec/CURA_COMPAT.md``): ``MM2INT(atof(text))``, the nearest double of the
+    decimal times 1000 plus half its sign, in float64, truncated. It differs
+    where the double lies below a half micron: ``0.5005`` is 500 µm there.
 
     Raises
     ------
@@ -107,8 +112,11 @@ def mm_to_microns(value: Decimal, flag: str) -> int:
         f"{COORD_LIMIT / 1000:g} mm in magnitude (2**30 µm)")
     if abs(value) >= COORD_LIMIT:  # (in mm): far out, and quantize stays exact
         raise out_of_range
-    # one rounding, of the decimal itself: half away from zero for both signs
-    um = int(value.quantize(Decimal("0.001"), rounding=ROUND_HALF_UP).scaleb(3))
+    if cura:
+        x = float(value)  # the double strtod gives for the typed decimal
+        um = int(x * 1000.0 + math.copysign(0.5, x) * (x != 0.0))
+    else:  # one rounding, of the decimal itself: half away from zero for both signs
+        um = int(value.quantize(Decimal("0.001"), rounding=ROUND_HALF_UP).scaleb(3))
     if abs(um) >= COORD_LIMIT:
         raise out_of_range
     return um

@@ -161,12 +161,13 @@ def settings_from_args(args: argparse.Namespace) -> Any:
                 raise CliInputError(f"{flag} only applies with --adaptive-layers; "
                                     f"got {shown_mm(v)} without it")
     values: dict[str, Any] = {}
+    cura = getattr(args, "compat", None) == "cura"  # lengths as CuraEngine reads them
     for opt in SLICE_OPTIONS:
         v = getattr(args, opt.setting, None)
         if v is None:
             continue
         if opt.kind == "mm":
-            v = mm_to_microns(v, opt.flag)
+            v = mm_to_microns(v, opt.flag, cura=cura)
         try:
             SliceSettings(**{opt.setting: v})
         except InputValueError as exc:

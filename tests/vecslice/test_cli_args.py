@@ -383,6 +383,29 @@ def test_negative_lengths_round_half_away_from_zero(text, um):
     assert got.adaptive_threshold == um
 
 
+def _mm2int(text):
+    """CuraEngine's MM2INT(atof(text)), written out from spec/CURA_COMPAT.md."""
+    x = float(text)
+    return int(x * 1000 + (0.5 if x > 0 else -0.5 if x < 0 else 0.0))
+
+
+@pytest.mark.parametrize(("text", "um"), [
+    # (the doubles of 0.5005 and 0.5015 lie just below them: the typed decimal
+    # rounds to 501 and 502 µm, CuraEngine's float64 MM2INT to 500 and 501)
+    ("0.5005", 500), ("0.5015", 501), ("0.0255", 26), ("0.1005", 101), ("0.1", 100),
+    ("0.0625", 63), ("-0.5005", -500), ("-0.0255", -26), ("0", 0), ("1e-1", 100),
+])  # fmt: skip
+def test_compat_cura_reads_lengths_as_curaengine(text, um):
+    """Audit s26 adaptive D5: with --compat cura, a typed length is the µm value
+    CuraEngine's MM2INT gives it, so the same millimetres give Cura's schedule."""
+    assert _mm2int(text) == um
+    got = _settings("--compat", "cura", "--adaptive-layers", "--adaptive-threshold",
+                    text)
+    assert got.adaptive_threshold == um and got.compat == "cura"
+    if not text.startswith("-") and text != "0":
+        assert _settings("--compat", "cura", "--layer-height", text).layer_height == um
+
+
 def test_first_layer_of_a_half_micron_length(capsys, cube):
     code, out, err = run(capsys, "cube.stl", "--initial-layer-height", "0.5005",
                          "--layer-height", "0.0255", "-o", "c.npz")
