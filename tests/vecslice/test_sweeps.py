@@ -4,6 +4,7 @@ import sys
 import threading
 import time
 
+import numba
 import numpy as np
 import pytest
 import trimesh
@@ -332,6 +333,8 @@ print("ok", len(t), numba.threading_layer())
 """
 
 
+@pytest.mark.skipif(numba.config.DISABLE_JIT,
+                    reason="NUMBA_DISABLE_JIT=1: nothing compiled, too slow as Python")
 def test_sweep_runs_on_threads_on_numbas_workqueue_layer(tmp_path):
     """Dask's threads on numba's workqueue layer too: no kernel is a parfor.
 

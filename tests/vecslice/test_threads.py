@@ -1,6 +1,7 @@
 import os
 import threading
 
+import numba
 import numpy as np
 import pytest
 
@@ -155,6 +156,8 @@ print("ok", numba.threading_layer(), numba.get_num_threads())
 """
 
 
+@pytest.mark.skipif(numba.config.DISABLE_JIT,
+                    reason="NUMBA_DISABLE_JIT=1: nothing compiled, too slow as Python")
 def test_two_threads_slice_at_once_on_numbas_workqueue_layer(tmp_path):
     # numba's fallback threading layer (no OpenMP, no TBB) aborts the whole
     # process (SIGABRT) when two threads run parfors at once: adaptive schedules,
