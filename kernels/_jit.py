@@ -12,9 +12,10 @@ numba's ``TypeError``.
 import threading
 import time
 
+import numpy as np
 from numba import njit
 
-__all__ = ["compile_listeners", "kernel", "run_serial"]
+__all__ = ["compile_listeners", "cost_chunks", "even_chunks", "kernel", "run_serial"]
 
 _lock = threading.RLock()
 
@@ -41,9 +42,11 @@ def kernel(signature=None, **options):
         The one signature the kernel is compiled for. Only helpers inlined into
         their callers (``inline="always"``) may omit it.
     **options
-        Further numba options (``parallel``, ``inline``, ``_nrt``). ``fastmath`` is
-        refused: results must be exact. ``_nrt=False`` compiles a kernel that
-        allocates nothing without reference counting; every other kernel sets
+        Further numba options (``inline``, ``_nrt``). ``fastmath`` is refused:
+        results must be exact. No kernel is a parfor (``parallel=True``): the
+        parallelism comes from chunks (see :func:`run_serial`), and
+        ``tests/test_conventions.py`` checks it. ``_nrt=False`` compiles a kernel
+        that allocates nothing without reference counting; every other kernel sets
         ``_nrt=True`` explicitly, because numba lets a kernel first compiled
         while typing a caller inherit the caller's ``_nrt`` when it sets none (so
         whether an allocating kernel compiled would depend on which caller was
@@ -100,3 +103,29 @@ def run_serial(fn, bounds):
     """
     for c in range(len(bounds) - 1):
         fn(int(bounds[c]), int(bounds[c + 1]))
+
+
+def even_chunks(n, size):
+    """Chunk bounds for ``run`` over ``n`` items of about equal cost: ``size`` each.
+
+    ``[0, size, 2 * size, ..., n]``; one chunk when ``n <= size``, none when
+    ``n == 0``.
+    """
+    return np.append(np.arange(0, n, size, dtype=np.int64), np.int64(n))
+
+
+def cost_chunks(offsets, cost):
+    """Chunk bounds for ``run`` over items of unequal cost: about ``cost`` each.
+
+    Item ``i`` costs ``1 + offsets[i + 1] - offsets[i]`` (``offsets``:
+    non-decreasing, from 0: e.g. a ragged array's, where an empty element still
+    costs a visit). Returns ascending item indices from 0 to ``len(offsets) - 1``,
+    each chunk (but the last) ending at the first item boundary at or after the
+    next multiple of ``cost``; no empty chunks, and none at all for no items.
+    """
+    n = offsets.shape[0] - 1
+    if n <= 0:
+        return np.zeros(1, dtype=np.int64)
+    total = offsets + np.arange(n + 1, dtype=np.int64)
+    cuts = np.searchsorted(total, np.arange(cost, total[-1], cost, dtype=np.int64))
+    return np.unique(np.concatenate(([0], cuts, [n]))).astype(np.int64)

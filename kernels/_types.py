@@ -22,3 +22,5 @@ B1_1D_OUT = types.boolean[::1]
 # in-place outputs (arguments named out_*)
 I64_1D_W = types.int64[::1]
 B1_1D_W = types.boolean[::1]
+I64_2D_W = types.int64[:, ::1]
+F64_1D_W = types.float64[::1]

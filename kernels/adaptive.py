@@ -9,17 +9,68 @@ machine code); ``math.acos``/``math.tan`` call the platform libm, as CuraEngine 
 import math
 
 import numpy as np
-from numba import prange, types
+from numba import types
 
 from ._jit import kernel
-from ._types import B1, F64_1D, F64_1D_OUT, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+from ._types import (
+    B1,
+    F64_1D,
+    F64_1D_OUT,
+    F64_1D_W,
+    I64,
+    I64_1D,
+    I64_1D_OUT,
+    I64_2D,
+    I64_2D_OUT,
+    I64_2D_W,
+)
 
 TAU = 2.0 * math.pi  # 6.283185307179586, the period of CuraEngine's angle type
 FLAT = math.fmod(math.fmod(math.pi, TAU) + TAU, TAU)  # == math.pi
 DBL_MAX = 1.7976931348623157e308
 
 
-@kernel(types.Tuple((I64_2D_OUT, F64_1D_OUT))(I64_2D, I64_2D, I64), parallel=True)
+@kernel(inline="always")
+def _face_slope(vertices, faces, dz, f, out_face_z, out_slope):
+    """Write face ``f``'s z range and slope (see :func:`face_slopes`).
+
+    Inlined into its two callers, so the machine code that
+    ``tests/kernels/test_adaptive.py`` checks for FMAs is theirs.
+    """
+    i0, i1, i2 = faces[f, 0], faces[f, 1], faces[f, 2]
+    z0 = vertices[i0, 2] - dz
+    z1 = vertices[i1, 2] - dz
+    z2 = vertices[i2, 2] - dz
+    out_face_z[f, 0] = min(z0, min(z1, z2))
+    out_face_z[f, 1] = max(z0, max(z1, z2))
+    # millimetres: multiply by the double 0.001 (not divide by 1000)
+    x0 = float(vertices[i0, 0]) * 0.001
+    y0 = float(vertices[i0, 1]) * 0.001
+    w0 = float(z0) * 0.001
+    ax = float(vertices[i1, 0]) * 0.001 - x0
+    ay = float(vertices[i1, 1]) * 0.001 - y0
+    az = float(z1) * 0.001 - w0
+    bx = float(vertices[i2, 0]) * 0.001 - x0
+    by = float(vertices[i2, 1]) * 0.001 - y0
+    bz = float(z2) * 0.001 - w0
+    nx = ay * bz - az * by
+    ny = az * bx - ax * bz
+    nz = ax * by - ay * bx
+    length = math.sqrt((nx * nx + ny * ny) + nz * nz)
+    if length == 0.0:
+        out_slope[f] = np.nan  # 0 / 0 in CuraEngine
+    else:
+        a = math.acos(abs(nz / length))
+        # CuraEngine wraps the angle into [0, 2 pi): fmod(fmod(a, TAU) + TAU,
+        # TAU). For 0 <= a <= pi/2 (acos of a value in [0, 1]) the inner fmod
+        # is a itself and x = a + TAU lies in [TAU, 2 TAU), so fmod(x, TAU) is
+        # x - TAU, which is exact (Sterbenz: TAU <= x <= 2 TAU). Same bits,
+        # without two libm fmods.
+        s = (a + TAU) - TAU
+        out_slope[f] = FLAT if s == 0.0 else s
+
+
+@kernel(types.Tuple((I64_2D_OUT, F64_1D_OUT))(I64_2D, I64_2D, I64))
 def face_slopes(vertices, faces, dz):
     """Per face: integer z range and the float64 slope of spec section 3.
 
@@ -27,45 +78,31 @@ def face_slopes(vertices, faces, dz):
     ``slope[f]`` in radians: the angle between the face and the horizontal plane,
     computed in millimetres from the shifted corners, wrapped into [0, 2 pi), with
     exactly 0 replaced by pi (a horizontal face) and NaN for a zero-area face.
+    Serial; ``vecslice.adaptive`` runs :func:`face_slopes_range` over chunks of
+    faces on a few threads instead (same results).
 
     Preconditions: 0 <= faces < len(vertices); |vertices|, |dz| < 2**30.
     """
     n = faces.shape[0]
     face_z = np.empty((n, 2), dtype=np.int64)
     slope = np.empty(n, dtype=np.float64)
-    for f in prange(n):
-        i0, i1, i2 = faces[f, 0], faces[f, 1], faces[f, 2]
-        z0 = vertices[i0, 2] - dz
-        z1 = vertices[i1, 2] - dz
-        z2 = vertices[i2, 2] - dz
-        face_z[f, 0] = min(z0, min(z1, z2))
-        face_z[f, 1] = max(z0, max(z1, z2))
-        # millimetres: multiply by the double 0.001 (not divide by 1000)
-        x0 = float(vertices[i0, 0]) * 0.001
-        y0 = float(vertices[i0, 1]) * 0.001
-        w0 = float(z0) * 0.001
-        ax = float(vertices[i1, 0]) * 0.001 - x0
-        ay = float(vertices[i1, 1]) * 0.001 - y0
-        az = float(z1) * 0.001 - w0
-        bx = float(vertices[i2, 0]) * 0.001 - x0
-        by = float(vertices[i2, 1]) * 0.001 - y0
-        bz = float(z2) * 0.001 - w0
-        nx = ay * bz - az * by
-        ny = az * bx - ax * bz
-        nz = ax * by - ay * bx
-        length = math.sqrt((nx * nx + ny * ny) + nz * nz)
-        if length == 0.0:
-            slope[f] = np.nan  # 0 / 0 in CuraEngine
-        else:
-            a = math.acos(abs(nz / length))
-            # CuraEngine wraps the angle into [0, 2 pi): fmod(fmod(a, TAU) + TAU,
-            # TAU). For 0 <= a <= pi/2 (acos of a value in [0, 1]) the inner fmod
-            # is a itself and x = a + TAU lies in [TAU, 2 TAU), so fmod(x, TAU) is
-            # x - TAU, which is exact (Sterbenz: TAU <= x <= 2 TAU). Same bits,
-            # without two libm fmods.
-            s = (a + TAU) - TAU
-            slope[f] = FLAT if s == 0.0 else s
+    for f in range(n):
+        _face_slope(vertices, faces, dz, f, face_z, slope)
     return face_z, slope
+
+
+@kernel(types.void(I64_2D, I64_2D, I64, I64, I64, I64_2D_W, F64_1D_W))
+def face_slopes_range(vertices, faces, dz, f0, f1, out_face_z, out_slope):
+    """:func:`face_slopes` of faces ``f0:f1``, into rows ``f0:f1`` of the outputs.
+
+    Serial: callers run disjoint ranges on several threads (the kernel releases
+    the GIL); the other rows are left as they are.
+
+    Preconditions: as :func:`face_slopes`; 0 <= f0 <= f1 <= len(faces); the
+    outputs have ``len(faces)`` rows.
+    """
+    for f in range(f0, f1):
+        _face_slope(vertices, faces, dz, f, out_face_z, out_slope)
 
 
 @kernel(I64_1D_OUT(I64_1D))

@@ -3,10 +3,12 @@
 The layer ranges are computed with numpy beforehand (one ``searchsorted`` per
 vertex, counts, cumulative sums); these kernels fill the per-crossing and per-segment
 arrays in one pass, each edge or face writing its own slice (count, scan, fill).
+Serial: slicing itself takes the fused kernels of :mod:`.contours`; these are the
+plain pipeline its tests compare against.
 """
 
 import numpy as np
-from numba import prange, types
+from numba import types
 
 from ._jit import kernel
 from ._types import B1_1D_OUT, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
@@ -31,7 +33,7 @@ def _round_div(num, den):
 
 
 @kernel(
-    I64_2D_OUT(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D), parallel=True,
+    I64_2D_OUT(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D),
 )
 def crossing_points(vertices, edge_vertices, vert_layer, edge_offsets, z):
     """The crossing point of every edge with every plane it crosses.
@@ -51,7 +53,7 @@ def crossing_points(vertices, edge_vertices, vert_layer, edge_offsets, z):
     """
     n_edges = edge_vertices.shape[0]
     out = np.empty((edge_offsets[n_edges], 2), dtype=np.int64)
-    for e in prange(n_edges):
+    for e in range(n_edges):
         start = edge_offsets[e]
         stop = edge_offsets[e + 1]
         if stop == start:
@@ -77,7 +79,7 @@ def crossing_points(vertices, edge_vertices, vert_layer, edge_offsets, z):
 @kernel(
     types.Tuple((I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, I64_1D_OUT, B1_1D_OUT))(
         I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D
-    ), parallel=True,
+    ),
 )
 def face_segments(faces, face_edges, vert_layer, edge_base, face_offsets, twin):
     """One directed segment per (face, plane) pair, and its successor.
@@ -110,7 +112,7 @@ def face_segments(faces, face_edges, vert_layer, edge_base, face_offsets, twin):
     open_out = np.zeros(n_seg, dtype=np.bool_)
     down_of = np.array(DOWN_EDGE, dtype=np.int64)
     up_of = np.array(UP_EDGE, dtype=np.int64)
-    for f in prange(n_faces):
+    for f in range(n_faces):
         start = face_offsets[f]
         stop = face_offsets[f + 1]
         if stop == start:

@@ -7,16 +7,15 @@ then every segment's end).
 """
 
 import numpy as np
-from numba import prange, types
+from numba import types
 
-from ._jit import kernel
-from ._types import B1_1D, B1_1D_OUT, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+from ._jit import cost_chunks, kernel, run_serial
+from ._types import B1_1D, B1_1D_W, I64, I64_1D, I64_1D_W, I64_2D, I64_2D_W
 from .cura_segments import segment_of
 
 # CuraEngine's largest_neglected_gap_first_phase = MM2INT(0.01)
 FIRST_PHASE_GAP = 10
-
-_LOOPS_OUT = types.Tuple((I64_1D_OUT, B1_1D_OUT, B1_1D_OUT))
+_SEGMENT_CHUNK = 1 << 15  # segments (and planes) per chunk of planes
 
 
 @kernel(inline="always")
@@ -61,11 +60,42 @@ def _next_segment(points, links, added, cur, start, k, face_lo, slot_offsets,
 
 
 @kernel(
-    _LOOPS_OUT(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, I64_1D, I64_1D),
-    parallel=True,
+    types.void(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, I64_1D, I64_1D, I64,
+               I64, B1_1D_W, I64_1D_W, B1_1D_W, B1_1D_W),
 )
+def _loops_range(points, links, layer_offsets, face_lo, slot_offsets, slot_seg,
+                 vf_offsets, vf_faces, k0, k1, added, out_seg_order, out_ring_start,
+                 out_closed):
+    """:func:`basic_loops` of planes ``k0:k1``, into their segments' entries.
+
+    ``added`` (S,) marks the segments used; False on entry for these planes'
+    segments (a chain never leaves its plane, so disjoint plane ranges can run
+    on several threads). ``out_ring_start`` and ``out_closed`` are False on entry.
+    """
+    for k in range(k0, k1):
+        pos = layer_offsets[k]
+        for s in range(layer_offsets[k], layer_offsets[k + 1]):
+            if added[s]:
+                continue
+            first = pos
+            out_ring_start[first] = True
+            cur = s
+            while True:
+                out_seg_order[pos] = cur
+                pos += 1
+                added[cur] = True
+                nxt = _next_segment(points, links, added, cur, s, k, face_lo,
+                                    slot_offsets, slot_seg, vf_offsets, vf_faces)
+                if nxt == s:
+                    out_closed[first] = True
+                    break
+                if nxt < 0:
+                    break
+                cur = nxt
+
+
 def basic_loops(points, links, layer_offsets, face_lo, slot_offsets, slot_seg,
-                vf_offsets, vf_faces):
+                vf_offsets, vf_faces, run=run_serial):
     """CuraEngine's ``makeBasicPolygonLoops`` on every plane.
 
     Segment ``s`` (plane ``k`` holds ``layer_offsets[k]:layer_offsets[k + 1]``, in
@@ -93,75 +123,51 @@ def basic_loops(points, links, layer_offsets, face_lo, slot_offsets, slot_seg,
     order (a permutation of each plane's range), whether position ``i`` starts a
     ring, and (at ring starts) whether it closed on its first segment.
 
+    Chunks of planes with about equal segment counts go to ``run``
+    (``run(fn, bounds)`` calls ``fn(lo, hi)`` for every chunk of planes, in any
+    order or at once: e.g. ``vecslice._threads.run_chunks``); by default one
+    after another.
+
     Preconditions: as produced by ``cura_segments.order_by_layer``; faces of
     ``vf_faces`` index ``face_lo``.
     """
     n_seg = points.shape[0]
-    n_layers = layer_offsets.shape[0] - 1
     added = np.zeros(n_seg, dtype=np.bool_)
     seg_order = np.empty(n_seg, dtype=np.int64)
     ring_start = np.zeros(n_seg, dtype=np.bool_)
     closed = np.zeros(n_seg, dtype=np.bool_)
-    for k in prange(n_layers):
-        pos = layer_offsets[k]
-        for s in range(layer_offsets[k], layer_offsets[k + 1]):
-            if added[s]:
-                continue
-            first = pos
-            ring_start[first] = True
-            cur = s
-            while True:
-                seg_order[pos] = cur
-                pos += 1
-                added[cur] = True
-                nxt = _next_segment(points, links, added, cur, s, k, face_lo,
-                                    slot_offsets, slot_seg, vf_offsets, vf_faces)
-                if nxt == s:
-                    closed[first] = True
-                    break
-                if nxt < 0:
-                    break
-                cur = nxt
+    run(lambda k0, k1: _loops_range(points, links, layer_offsets, face_lo,
+                                    slot_offsets, slot_seg, vf_offsets, vf_faces, k0,
+                                    k1, added, seg_order, ring_start, closed),
+        cost_chunks(layer_offsets, _SEGMENT_CHUNK))
     return seg_order, ring_start, closed
 
 
-_EMIT_OUT = types.Tuple(
-    (I64_2D_OUT, I64_1D_OUT, I64_1D_OUT, I64_2D_OUT, I64_1D_OUT, I64_1D_OUT)
-)
+@kernel(types.void(B1_1D, B1_1D, I64_1D, I64, I64, I64_2D_W))
+def _count_range(ring_start, closed, layer_offsets, k0, k1, out_cnt):
+    """Count the rings of planes ``k0:k1``: the first pass of :func:`emit_rings`.
 
-
-@kernel(_EMIT_OUT(I64_2D, I64_1D, B1_1D, B1_1D, I64_1D), parallel=True)
-def emit_rings(points, seg_order, ring_start, closed, layer_offsets):
-    """The points of the loops and open chains :func:`basic_loops` found.
-
-    A ring of segments ``s_0 .. s_m`` is the start of ``s_0`` followed by the end
-    of every ``s_i`` (CuraEngine appends only segment ends): a closed loop's last
-    point is its near-duplicate closing point. Returns ``(loop_coords,
-    loop_ring_offsets, loop_layer_offsets, chain_coords, chain_ring_offsets,
-    chain_layer_offsets)``, each kind in visiting order per plane (count, scan,
-    fill; planes in parallel).
+    ``out_cnt[k + 1]`` = (loops, loop points, chains, chain points) of plane
+    ``k``; the row is zero on entry.
     """
-    n_layers = layer_offsets.shape[0] - 1
-    # per plane: loops, loop points, chains, chain points
-    cnt = np.zeros((n_layers + 1, 4), dtype=np.int64)
-    for k in prange(n_layers):
+    for k in range(k0, k1):
         c = 0
         for i in range(layer_offsets[k], layer_offsets[k + 1]):
             if ring_start[i]:
                 c = 0 if closed[i] else 2
-                cnt[k + 1, c] += 1
-                cnt[k + 1, c + 1] += 1
-            cnt[k + 1, c + 1] += 1
-    for k in range(n_layers):
-        for c in range(4):
-            cnt[k + 1, c] += cnt[k, c]
-    loop_xy = np.empty((cnt[n_layers, 1], 2), dtype=np.int64)
-    chain_xy = np.empty((cnt[n_layers, 3], 2), dtype=np.int64)
-    loop_rings = np.empty(cnt[n_layers, 0] + 1, dtype=np.int64)
-    chain_rings = np.empty(cnt[n_layers, 2] + 1, dtype=np.int64)
-    loop_rings[0] = 0
-    chain_rings[0] = 0
-    for k in prange(n_layers):
+                out_cnt[k + 1, c] += 1
+                out_cnt[k + 1, c + 1] += 1
+            out_cnt[k + 1, c + 1] += 1
+
+
+@kernel(
+    types.void(I64_2D, I64_1D, B1_1D, B1_1D, I64_1D, I64_2D, I64, I64, I64_2D_W,
+               I64_1D_W, I64_2D_W, I64_1D_W),
+)
+def _emit_range(points, seg_order, ring_start, closed, layer_offsets, cnt, k0, k1,
+                out_loop_xy, out_loop_rings, out_chain_xy, out_chain_rings):
+    """The rings of planes ``k0:k1``, from the counts ``cnt`` (scanned)."""
+    for k in range(k0, k1):
         r_loop = cnt[k, 0]
         p_loop = cnt[k, 1]
         r_chain = cnt[k, 2]
@@ -172,29 +178,57 @@ def emit_rings(points, seg_order, ring_start, closed, layer_offsets):
             if ring_start[i]:
                 is_loop = closed[i]
                 if is_loop:
-                    loop_xy[p_loop, 0] = points[s, 0]
-                    loop_xy[p_loop, 1] = points[s, 1]
+                    out_loop_xy[p_loop, 0] = points[s, 0]
+                    out_loop_xy[p_loop, 1] = points[s, 1]
                     p_loop += 1
                 else:
-                    chain_xy[p_chain, 0] = points[s, 0]
-                    chain_xy[p_chain, 1] = points[s, 1]
+                    out_chain_xy[p_chain, 0] = points[s, 0]
+                    out_chain_xy[p_chain, 1] = points[s, 1]
                     p_chain += 1
             if is_loop:
-                loop_xy[p_loop, 0] = points[s, 2]
-                loop_xy[p_loop, 1] = points[s, 3]
+                out_loop_xy[p_loop, 0] = points[s, 2]
+                out_loop_xy[p_loop, 1] = points[s, 3]
                 p_loop += 1
             else:
-                chain_xy[p_chain, 0] = points[s, 2]
-                chain_xy[p_chain, 1] = points[s, 3]
+                out_chain_xy[p_chain, 0] = points[s, 2]
+                out_chain_xy[p_chain, 1] = points[s, 3]
                 p_chain += 1
             last = i + 1 == layer_offsets[k + 1] or ring_start[i + 1]
             if last:
                 if is_loop:
                     r_loop += 1
-                    loop_rings[r_loop] = p_loop
+                    out_loop_rings[r_loop] = p_loop
                 else:
                     r_chain += 1
-                    chain_rings[r_chain] = p_chain
+                    out_chain_rings[r_chain] = p_chain
+
+
+def emit_rings(points, seg_order, ring_start, closed, layer_offsets, run=run_serial):
+    """The points of the loops and open chains :func:`basic_loops` found.
+
+    A ring of segments ``s_0 .. s_m`` is the start of ``s_0`` followed by the end
+    of every ``s_i`` (CuraEngine appends only segment ends): a closed loop's last
+    point is its near-duplicate closing point. Returns ``(loop_coords,
+    loop_ring_offsets, loop_layer_offsets, chain_coords, chain_ring_offsets,
+    chain_layer_offsets)``, each kind in visiting order per plane (count, scan,
+    fill; chunks of planes go to ``run`` as in :func:`basic_loops`).
+    """
+    n_layers = layer_offsets.shape[0] - 1
+    bounds = cost_chunks(layer_offsets, _SEGMENT_CHUNK)
+    # per plane: loops, loop points, chains, chain points
+    cnt = np.zeros((n_layers + 1, 4), dtype=np.int64)
+    run(lambda k0, k1: _count_range(ring_start, closed, layer_offsets, k0, k1, cnt),
+        bounds)
+    np.cumsum(cnt, axis=0, out=cnt)
+    loop_xy = np.empty((cnt[n_layers, 1], 2), dtype=np.int64)
+    chain_xy = np.empty((cnt[n_layers, 3], 2), dtype=np.int64)
+    loop_rings = np.empty(cnt[n_layers, 0] + 1, dtype=np.int64)
+    chain_rings = np.empty(cnt[n_layers, 2] + 1, dtype=np.int64)
+    loop_rings[0] = 0
+    chain_rings[0] = 0
+    run(lambda k0, k1: _emit_range(points, seg_order, ring_start, closed,
+                                   layer_offsets, cnt, k0, k1, loop_xy, loop_rings,
+                                   chain_xy, chain_rings), bounds)
     loop_layers = cnt[:, 0].copy()
     chain_layers = cnt[:, 2].copy()
     return loop_xy, loop_rings, loop_layers, chain_xy, chain_rings, chain_layers

@@ -9,12 +9,14 @@ Two passes, both from ``spec/CURA_COMPAT.md`` section 2:
 """
 
 import numpy as np
-from numba import prange, types
+from numba import types
 
-from ._jit import kernel
-from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+from ._jit import cost_chunks, even_chunks, kernel, run_serial
+from ._types import I64, I64_1D, I64_1D_OUT, I64_1D_W, I64_2D, I64_2D_W
 
 _TWO_PI = 2.0 * np.pi
+_MELD_CHUNK = 1 << 16  # corners per chunk of cells to meld
+_FACE_CHUNK = 1 << 14  # faces per chunk of face_neighbours
 
 
 @kernel(inline="always")
@@ -30,8 +32,32 @@ def _within(corners, a, b, reach):
     return dx * dx + dy * dy + dz * dz <= reach * reach
 
 
-@kernel(I64_1D_OUT(I64_2D, I64_1D, I64_1D, I64), parallel=True)
-def meld_corners(corners, order, cell_offsets, reach):
+@kernel(types.void(I64_2D, I64_1D, I64_1D, I64, I64, I64, I64_1D_W, I64_1D_W))
+def _meld_range(corners, order, cell_offsets, reach, c0, c1, out_rep, created):
+    """:func:`meld_corners` of cells ``c0:c1``: writes ``out_rep`` of their corners.
+
+    ``created`` (N,) is scratch: a cell's created corners go to its own slots
+    ``cell_offsets[c]:``, so disjoint cell ranges can run on several threads.
+    """
+    for c in range(c0, c1):
+        start = cell_offsets[c]
+        count = 0
+        for k in range(start, cell_offsets[c + 1]):
+            i = order[k]
+            found = -1
+            for m in range(count):
+                e = created[start + m]
+                if _within(corners, e, i, reach):
+                    found = e
+                    break
+            if found < 0:
+                created[start + count] = i
+                count += 1
+                found = i
+            out_rep[i] = found
+
+
+def meld_corners(corners, order, cell_offsets, reach, run=run_serial):
     """The corner whose vertex each corner reuses, CuraEngine's melding.
 
     ``corners`` (N, 3) are the triangle corners in file order. ``order`` lists
@@ -51,28 +77,18 @@ def meld_corners(corners, order, cell_offsets, reach):
     buckets, but no bucket can hold more than the few vertices that fit in one
     cell pairwise farther apart than ``reach`` (no quadratic worst case).
 
+    The cells are melded in chunks of about equal corner counts given to ``run``
+    (``run(fn, bounds)`` calls ``fn(lo, hi)`` for every chunk of cells, in any
+    order or at once: e.g. ``vecslice._threads.run_chunks``); by default one
+    after another.
+
     Preconditions: |corners| < 2**30; ``order`` and ``cell_offsets`` as above.
     """
     n = corners.shape[0]
     rep = np.empty(n, dtype=np.int64)
     created = np.empty(n, dtype=np.int64)  # per cell: created corners at its slots
-    n_cells = cell_offsets.shape[0] - 1
-    for c in prange(n_cells):
-        start = cell_offsets[c]
-        count = 0
-        for k in range(start, cell_offsets[c + 1]):
-            i = order[k]
-            found = -1
-            for m in range(count):
-                e = created[start + m]
-                if _within(corners, e, i, reach):
-                    found = e
-                    break
-            if found < 0:
-                created[start + count] = i
-                count += 1
-                found = i
-            rep[i] = found
+    run(lambda c0, c1: _meld_range(corners, order, cell_offsets, reach, c0, c1, rep,
+                                   created), cost_chunks(cell_offsets, _MELD_CHUNK))
     return rep
 
 
@@ -107,7 +123,7 @@ def _smallest_angle(vertices, faces, f, a, b, cands, lo, hi):
     an edge of length zero (two vertex indices at one position, which a mesh not
     loaded the CuraEngine way can hold) divides by zero into NaN angles, which
     no comparison prefers, so no candidate wins (-1), as in CuraEngine; Python's
-    rules would raise ZeroDivisionError inside the parallel kernel.
+    rules would raise ZeroDivisionError inside the kernel.
     """
     w = _third(faces, f, a, b)
     v0x = (vertices[b, 0] - vertices[a, 0]) / 1000.0
@@ -199,8 +215,16 @@ def _across(vertices, faces, f, a, b, vf_offsets, vf_faces):
     return _smallest_angle(vertices, faces, f, a, b, vf_faces, lo, hi)
 
 
-@kernel(I64_2D_OUT(I64_2D, I64_2D, I64_1D, I64_1D), parallel=True)
-def face_neighbours(vertices, faces, vf_offsets, vf_faces):
+@kernel(types.void(I64_2D, I64_2D, I64_1D, I64_1D, I64, I64, I64_2D_W))
+def _neighbours_range(vertices, faces, vf_offsets, vf_faces, f0, f1, out_neighbours):
+    """:func:`face_neighbours` of faces ``f0:f1``, into their rows of the output."""
+    for f in range(f0, f1):
+        for j in range(3):
+            out_neighbours[f, j] = _across(vertices, faces, f, faces[f, j],
+                                           faces[f, (j + 1) % 3], vf_offsets, vf_faces)
+
+
+def face_neighbours(vertices, faces, vf_offsets, vf_faces, run=run_serial):
     """CuraEngine's ``connected_face_index``: the face across each face edge.
 
     Entry ``[f, j]`` is the face across edge ``j`` of face ``f`` (edge 0 runs
@@ -218,13 +242,13 @@ def face_neighbours(vertices, faces, vf_offsets, vf_faces):
     taken in integer µm, then converted to mm (/ 1000) in double precision; the
     first candidate in face order wins a tie.
 
+    Chunks of faces go to ``run`` (as in :func:`meld_corners`).
+
     Preconditions: faces have three distinct vertices in [0, V); |vertices| <
     2**30; ``vf_offsets``, ``vf_faces`` from :func:`vertex_faces`.
     """
     n_faces = faces.shape[0]
     out = np.empty((n_faces, 3), dtype=np.int64)
-    for f in prange(n_faces):
-        for j in range(3):
-            out[f, j] = _across(vertices, faces, f, faces[f, j], faces[f, (j + 1) % 3],
-                                vf_offsets, vf_faces)
+    run(lambda f0, f1: _neighbours_range(vertices, faces, vf_offsets, vf_faces, f0,
+                                         f1, out), even_chunks(n_faces, _FACE_CHUNK))
     return out

@@ -15,13 +15,13 @@ compute each segment straight into its place.
 """
 
 import numpy as np
-from numba import prange, types
+from numba import types
 
-from ._jit import kernel
-from ._types import B1_1D, B1_1D_OUT, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+from ._jit import cost_chunks, kernel, run_serial
+from ._types import B1_1D, B1_1D_W, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_W
 from .geometry import tdiv
 
-_SEG_OUT = types.Tuple((I64_2D_OUT, I64_2D_OUT))
+_SLOT_CHUNK = 1 << 16  # (face, plane) slots per chunk of faces
 
 
 @kernel(I64(I64, I64, I64, I64, I64))
@@ -108,26 +108,35 @@ def face_ranges(vert_layer, faces):
     return lo, offsets
 
 
-@kernel(
-    B1_1D_OUT(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64), parallel=True,
-)
-def classify_slots(vertices, faces, z, face_lo, slot_offsets, comp_limit):
+@kernel(types.void(I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64, I64, I64, B1_1D_W))
+def _classify_range(vertices, faces, z, face_lo, slot_offsets, comp_limit, f0, f1,
+                    out_valid):
+    """:func:`classify_slots` of faces ``f0:f1``, into their slots of ``out_valid``."""
+    for f in range(f0, f1):
+        s0 = slot_offsets[f]
+        for s in range(s0, slot_offsets[f + 1]):
+            zz = z[face_lo[f] + s - s0]
+            z0, z1, z2 = _compensated(vertices, faces, f, zz, comp_limit)
+            out_valid[s] = _row(z0, z1, z2, zz) >= 0
+
+
+def classify_slots(vertices, faces, z, face_lo, slot_offsets, comp_limit,
+                   run=run_serial):
     """Whether each (face, plane) slot gives a segment (CuraEngine's case table).
 
     A vertex on the plane is moved 1 µm down first when the plane is below
     ``comp_limit`` (CuraEngine: ``z <= 0`` for a mesh on the bed; a very small
     value disables it, as CuraEngine's 'inclusive' mode does). A segment needs one
     vertex above the plane and the others at or below it, or two above and one
-    strictly below (see :func:`fill_segments`).
+    strictly below (see :func:`fill_segments`). Chunks of faces of about equal
+    slot counts go to ``run`` (``run(fn, bounds)`` calls ``fn(lo, hi)`` for every
+    chunk of faces, in any order or at once: e.g.
+    ``vecslice._threads.run_chunks``); by default one after another.
     """
-    n_faces = faces.shape[0]
-    valid = np.zeros(slot_offsets[n_faces], dtype=np.bool_)
-    for f in prange(n_faces):
-        s0 = slot_offsets[f]
-        for s in range(s0, slot_offsets[f + 1]):
-            zz = z[face_lo[f] + s - s0]
-            z0, z1, z2 = _compensated(vertices, faces, f, zz, comp_limit)
-            valid[s] = _row(z0, z1, z2, zz) >= 0
+    valid = np.zeros(slot_offsets[-1], dtype=np.bool_)
+    run(lambda f0, f1: _classify_range(vertices, faces, z, face_lo, slot_offsets,
+                                       comp_limit, f0, f1, valid),
+        cost_chunks(slot_offsets, _SLOT_CHUNK))
     return valid
 
 
@@ -170,42 +179,12 @@ def segment_of(f, k, face_lo, slot_offsets, slot_seg):
     return slot_seg[slot_offsets[f] + i]
 
 
-@kernel(
-    _SEG_OUT(I64_2D, I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, I64),
-    parallel=True,
-)
-def fill_segments(vertices, faces, neighbours, z, face_lo, slot_offsets, slot_seg,
-                  comp_limit):
-    """CuraEngine's segments, written in segment order (see :func:`order_by_layer`).
-
-    Returns ``(points, links)``: ``points[i]`` = start x, y, end x, y of segment
-    ``i``; ``links[i]`` = (the segment on the same plane of the face across the
-    edge the end lies on, ``endOtherFaceIdx``, or -1 if there is none; the vertex
-    the end lies on, ``endVertex``, or -1).
-
-    After the compensation of :func:`classify_slots`, the first matching row of
-    CuraEngine's table over the face's vertices p0, p1, p2 (z compared with the
-    plane z; "pX->pY": the point ``interpolate(z, pX.z, pY.z, pX.x, pY.x)``, and
-    the same for y):
-
-    * A: p0 < z, p1 > z, p2 > z: start on p0->p2, end on p0->p1 (edge 0);
-    * B: p0 > z, p1 <= z, p2 <= z: p0->p1, p0->p2 (edge 2; endVertex v2 if p2 == z);
-    * C: p1 < z, p0 > z, p2 > z: p1->p0, p1->p2 (edge 1);
-    * D: p1 > z, p0 <= z, p2 <= z: p1->p2, p1->p0 (edge 0; endVertex v0 if p0 == z);
-    * E: p2 < z, p1 > z, p0 > z: p2->p1, p2->p0 (edge 2);
-    * F: p2 > z, p1 <= z, p0 <= z: p2->p0, p2->p1 (edge 1; endVertex v1 if p1 == z).
-
-    Preconditions: ``slot_seg`` from :func:`order_by_layer` with the same
-    ``comp_limit``; ``z`` sorted; |coordinates| < 2**30.
-    """
-    n_faces = faces.shape[0]
-    n_seg = 0
-    for s in range(slot_seg.shape[0]):
-        if slot_seg[s] >= 0:
-            n_seg += 1
-    points = np.empty((n_seg, 4), dtype=np.int64)
-    links = np.empty((n_seg, 2), dtype=np.int64)
-    for f in prange(n_faces):
+@kernel(types.void(I64_2D, I64_2D, I64_2D, I64_1D, I64_1D, I64_1D, I64_1D, I64,
+                   I64, I64, I64_2D_W, I64_2D_W))
+def _fill_range(vertices, faces, neighbours, z, face_lo, slot_offsets, slot_seg,
+                comp_limit, f0, f1, out_points, out_links):
+    """:func:`fill_segments` of faces ``f0:f1``, into their segments' rows."""
+    for f in range(f0, f1):
         s0 = slot_offsets[f]
         v0 = faces[f, 0]
         v1 = faces[f, 1]
@@ -249,12 +228,46 @@ def fill_segments(vertices, faces, neighbours, z, face_lo, slot_offsets, slot_se
                 edge = 1
                 if z1 == zz:
                     ev = v1
-            points[i, 0] = sx
-            points[i, 1] = sy
-            points[i, 2] = ex
-            points[i, 3] = ey
+            out_points[i, 0] = sx
+            out_points[i, 1] = sy
+            out_points[i, 2] = ex
+            out_points[i, 3] = ey
             g = neighbours[f, edge]
-            links[i, 0] = -1 if g < 0 else segment_of(g, k, face_lo, slot_offsets,
-                                                      slot_seg)
-            links[i, 1] = ev
+            out_links[i, 0] = -1 if g < 0 else segment_of(
+                g, k, face_lo, slot_offsets, slot_seg)
+            out_links[i, 1] = ev
+
+
+def fill_segments(vertices, faces, neighbours, z, face_lo, slot_offsets, slot_seg,
+                  comp_limit, run=run_serial):
+    """CuraEngine's segments, written in segment order (see :func:`order_by_layer`).
+
+    Returns ``(points, links)``: ``points[i]`` = start x, y, end x, y of segment
+    ``i``; ``links[i]`` = (the segment on the same plane of the face across the
+    edge the end lies on, ``endOtherFaceIdx``, or -1 if there is none; the vertex
+    the end lies on, ``endVertex``, or -1).
+
+    After the compensation of :func:`classify_slots`, the first matching row of
+    CuraEngine's table over the face's vertices p0, p1, p2 (z compared with the
+    plane z; "pX->pY": the point ``interpolate(z, pX.z, pY.z, pX.x, pY.x)``, and
+    the same for y):
+
+    * A: p0 < z, p1 > z, p2 > z: start on p0->p2, end on p0->p1 (edge 0);
+    * B: p0 > z, p1 <= z, p2 <= z: p0->p1, p0->p2 (edge 2; endVertex v2 if p2 == z);
+    * C: p1 < z, p0 > z, p2 > z: p1->p0, p1->p2 (edge 1);
+    * D: p1 > z, p0 <= z, p2 <= z: p1->p2, p1->p0 (edge 0; endVertex v0 if p0 == z);
+    * E: p2 < z, p1 > z, p0 > z: p2->p1, p2->p0 (edge 2);
+    * F: p2 > z, p1 <= z, p0 <= z: p2->p0, p2->p1 (edge 1; endVertex v1 if p1 == z).
+
+    Chunks of faces go to ``run`` (as in :func:`classify_slots`).
+
+    Preconditions: ``slot_seg`` from :func:`order_by_layer` with the same
+    ``comp_limit``; ``z`` sorted; |coordinates| < 2**30.
+    """
+    n_seg = int(np.count_nonzero(slot_seg >= 0))
+    points = np.empty((n_seg, 4), dtype=np.int64)
+    links = np.empty((n_seg, 2), dtype=np.int64)
+    run(lambda f0, f1: _fill_range(vertices, faces, neighbours, z, face_lo,
+                                   slot_offsets, slot_seg, comp_limit, f0, f1, points,
+                                   links), cost_chunks(slot_offsets, _SLOT_CHUNK))
     return points, links

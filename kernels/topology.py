@@ -1,7 +1,7 @@
 """Kernels deriving the edge topology of a triangle mesh."""
 
 import numpy as np
-from numba import prange, types
+from numba import types
 
 from ._jit import kernel, run_serial
 from ._types import I64, I64_1D, I64_1D_OUT, I64_1D_W, I64_2D, I64_2D_OUT
@@ -108,7 +108,7 @@ def _bucket_edges(faces, items, v, e0, offsets, out_edge, out_twin, out_verts,
 
 
 @kernel(
-    types.Tuple((I64_2D_OUT, I64_2D_OUT, I64_1D_OUT))(I64_2D, I64), parallel=True,
+    types.Tuple((I64_2D_OUT, I64_2D_OUT, I64_1D_OUT))(I64_2D, I64),
 )
 def edge_topology(faces, n_vertices):
     """Number the undirected edges of a triangle mesh.
@@ -126,7 +126,9 @@ def edge_topology(faces, n_vertices):
     inconsistently wound edges).
 
     Linear time: half-edges are bucketed by their smaller vertex (counting sort)
-    and matched inside each bucket, in two parallel passes (count, then fill).
+    and matched inside each bucket, in two passes (count, then fill). Serial:
+    slicing takes :func:`half_edge_twins` (chunks on threads) unless a mesh has
+    2**30 vertices or more.
 
     Preconditions (the caller checks them): 0 <= faces < n_vertices; no face repeats
     a vertex index.
@@ -140,21 +142,16 @@ def edge_topology(faces, n_vertices):
     twin = np.full(n_half, -1, dtype=np.int64)
     no_verts = np.empty((0, 2), dtype=np.int64)
     per_vertex = np.zeros(n_vertices + 1, dtype=np.int64)
-    n_chunks = 64
-    step = (n_vertices + n_chunks - 1) // n_chunks
-    for c in prange(n_chunks):
-        scratch = np.empty(2 * max_d, dtype=np.int64)
-        for v in range(c * step, min(n_vertices, (c + 1) * step)):
-            per_vertex[v + 1] = _bucket_edges(faces, items, v, 0, offsets, edge_of,
-                                              twin, no_verts, scratch, False)
+    scratch = np.empty(2 * max_d, dtype=np.int64)
+    for v in range(n_vertices):
+        per_vertex[v + 1] = _bucket_edges(faces, items, v, 0, offsets, edge_of,
+                                          twin, no_verts, scratch, False)
     for v in range(n_vertices):
         per_vertex[v + 1] += per_vertex[v]
     edge_verts = np.empty((per_vertex[n_vertices], 2), dtype=np.int64)
-    for c in prange(n_chunks):
-        scratch = np.empty(2 * max_d, dtype=np.int64)
-        for v in range(c * step, min(n_vertices, (c + 1) * step)):
-            _bucket_edges(faces, items, v, per_vertex[v], offsets, edge_of, twin,
-                          edge_verts, scratch, True)
+    for v in range(n_vertices):
+        _bucket_edges(faces, items, v, per_vertex[v], offsets, edge_of, twin,
+                      edge_verts, scratch, True)
     return edge_of.reshape((faces.shape[0], 3)), edge_verts, twin
 
 

@@ -1,8 +1,10 @@
 """STYLE.md conventions as tests: every kernel is typed, cached, nogil, exact."""
 
+import ast
 import importlib
 import inspect
 import pkgutil
+from pathlib import Path
 
 import numba
 import numpy as np
@@ -25,16 +27,12 @@ def _kernels():
 KERNELS = list(_kernels())
 DECLARED = [p for p in KERNELS if p.values[0].targetoptions.get("inline") != "always"]
 
-# parfors cost seconds each to compile on a first run; new parallel work is a plain
-# nogil kernel over a chunk (lo, hi) and a driver whose `run` runs the chunks
-# (vecslice._threads.run_chunks). These kernels still use parallel=True:
-PARALLEL_ALLOWED = {
-    "adaptive.face_slopes", "crossings.crossing_points", "crossings.face_segments",
-    "cura_loops.basic_loops", "cura_loops.emit_rings", "cura_mesh.meld_corners",
-    "cura_mesh.face_neighbours", "cura_segments.classify_slots",
-    "cura_segments.fill_segments", "metrics.compare_rings",
-    "simplify._simplify_core", "topology.edge_topology",
-}
+# parfors cost seconds each to compile on a first run, and numba's workqueue
+# threading layer (its fallback without OpenMP or TBB) aborts the process when two
+# threads run parfors at once; parallel work is a plain nogil kernel over a chunk
+# (lo, hi) and a driver whose `run` runs the chunks (vecslice._threads.run_chunks).
+# No kernel uses parallel=True:
+PARALLEL_ALLOWED: set[str] = set()
 
 
 def _drivers():
@@ -112,6 +110,30 @@ def test_fastmath_is_refused():
 def test_only_the_listed_kernels_are_parfors():
     parallel = {p.id for p in KERNELS if p.values[0].targetoptions.get("parallel")}
     assert parallel <= PARALLEL_ALLOWED, parallel - PARALLEL_ALLOWED
+
+
+def _parfor_uses(path):
+    """``prange`` names and ``parallel=True`` arguments in a module's code."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Name | ast.Attribute | ast.alias):
+            name = getattr(node, "id", None) or getattr(node, "attr", None) or (
+                getattr(node, "name", ""))
+            if name.split(".")[-1] == "prange":
+                found.append(f"{path.name}:{getattr(node, 'lineno', '?')} prange")
+        if isinstance(node, ast.keyword) and node.arg == "parallel":
+            if not (isinstance(node.value, ast.Constant) and not node.value.value):
+                found.append(f"{path.name}:{node.lineno} parallel=")
+    return found
+
+
+def test_no_kernel_module_uses_parfors():
+    # the source, not the dispatchers: also true under NUMBA_DISABLE_JIT and for
+    # inline helpers
+    paths = sorted(Path(kernels.__path__[0]).glob("*.py"))
+    assert len(paths) > 10
+    found = [use for path in paths for use in _parfor_uses(path)]
+    assert not found, found
 
 
 @pytest.mark.parametrize("driver", list(_drivers()))

@@ -13,11 +13,13 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from vecslice._kernels._jit import even_chunks
 from vecslice._kernels.adaptive import (
     adaptive_layers_sorted,
+    face_slopes_range,
     sort_faces,
 )
-from vecslice._kernels.adaptive import face_slopes as _face_slopes
+from vecslice._threads import run_chunks
 from vecslice._validate import check_int, check_layer_count, check_option
 from vecslice.errors import InputTypeError, SettingsError
 from vecslice.interrupt import keyboard_interrupts
@@ -32,6 +34,8 @@ MAX_HEIGHTS = 2**20  # longest list allowed_heights gives (8 MiB)
 
 Frame = Literal["mesh", "bed"]
 Schedule = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]
+
+_FACE_CHUNK = 1 << 14  # faces per chunk of face_slopes_range (about 2 ms)
 
 
 def _height_range(layer_height: int, variation: int, step: int) -> tuple[int, int]:
@@ -161,6 +165,22 @@ def face_slopes(
     """
     m = _check_mesh(mesh)
     return _face_slopes(m.vertices, m.faces, _shift(m, frame))
+
+
+def _face_slopes(
+    vertices: NDArray[np.int64], faces: NDArray[np.int64], dz: int
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """The kernel ``face_slopes`` on threads (chunks of faces), same bits.
+
+    A plain ``nogil`` kernel per chunk, not a parfor: numba's ``workqueue``
+    threading layer aborts the process when two threads run parfors at once.
+    """
+    n = faces.shape[0]
+    face_z = np.empty((n, 2), dtype=np.int64)
+    slope = np.empty(n, dtype=np.float64)
+    run_chunks(lambda f0, f1: face_slopes_range(vertices, faces, dz, f0, f1, face_z,
+                                                slope), even_chunks(n, _FACE_CHUNK))
+    return face_z, slope
 
 
 def _sorted_faces(m: Mesh, dz: int) -> tuple[NDArray[Any], ...]:

@@ -174,16 +174,17 @@ def cura_raw(
     faces, vf_offsets, vf_faces, neighbours = mesh._cura_topology()
     vert_layer = vertex_layers(vertices, z, run=run_chunks)  # searchsorted, left
     face_lo, slot_offsets = face_ranges(vert_layer, faces)
-    valid = classify_slots(vertices, faces, z, face_lo, slot_offsets, limit)
+    valid = classify_slots(vertices, faces, z, face_lo, slot_offsets, limit,
+                           run=run_chunks)
     layer_offsets, slot_seg = order_by_layer(valid, face_lo, slot_offsets, n_layers)
     points, links = fill_segments(vertices, faces, neighbours, z, face_lo,
-                                  slot_offsets, slot_seg, limit)
+                                  slot_offsets, slot_seg, limit, run=run_chunks)
     seg_order, ring_start, closed = basic_loops(
         points, links, layer_offsets, face_lo, slot_offsets, slot_seg, vf_offsets,
-        vf_faces,
+        vf_faces, run=run_chunks,
     )
     lc, lr, ll, cc, cr, cl = emit_rings(points, seg_order, ring_start, closed,
-                                        layer_offsets)
+                                        layer_offsets, run=run_chunks)
     loops = LayerPaths._trusted(lc, lr, ll)
     chains = LayerPaths._trusted(cc, cr, cl)
     stitched = np.zeros(n_layers, dtype=np.int64)

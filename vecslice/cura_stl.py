@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice._kernels.cura_mesh import meld_corners
+from vecslice._threads import run_chunks
 from vecslice.errors import (
     InputTypeError,
     InputValueError,
@@ -252,7 +253,7 @@ def meld(corners_um: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.i
     if n:
         new_cell[1:] = (qs[1:] != qs[:-1]).any(axis=1)
     cell_offsets = np.append(np.flatnonzero(new_cell), n).astype(np.int64)
-    rep = meld_corners(c, order, cell_offsets, MELD_DISTANCE)
+    rep = meld_corners(c, order, cell_offsets, MELD_DISTANCE, run=run_chunks)
     created = rep == np.arange(n, dtype=np.int64)
     new_id = np.cumsum(created, dtype=np.int64) - 1
     return np.ascontiguousarray(c[created]), new_id[rep]

@@ -228,6 +228,7 @@ class Mesh:
         cura = self._cura
         if cura is None:
             from vecslice._kernels.cura_mesh import face_neighbours, vertex_faces
+            from vecslice._threads import run_chunks
 
             f = self.faces
             a, b, c = f[:, 0], f[:, 1], f[:, 2]
@@ -235,7 +236,8 @@ class Mesh:
             if repeated.any():
                 f = _freeze(np.ascontiguousarray(f[~repeated]))
             vf_offsets, vf_faces = vertex_faces(f, self.vertices.shape[0])
-            neighbours = face_neighbours(self.vertices, f, vf_offsets, vf_faces)
+            neighbours = face_neighbours(self.vertices, f, vf_offsets, vf_faces,
+                                         run_chunks)
             cura = (f, _freeze(vf_offsets), _freeze(vf_faces), _freeze(neighbours))
             object.__setattr__(self, "_cura", cura)
         return cura

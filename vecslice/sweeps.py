@@ -430,22 +430,6 @@ def _row(mesh_index: int, name: str, i: int, s: SliceSettings,
 # --- the engine ---------------------------------------------------------------
 
 
-def _local_scheduler() -> str:
-    """Dask's threads, unless numba's only threading layer is unsafe for them."""
-    import numba
-
-    # numba picks its threading layer when it first starts its thread pool (the
-    # sweep's cura and adaptive rows run parfors); start it now, no kernel needed
-    try:
-        from numba.np.ufunc.parallel import _launch_threads
-
-        _launch_threads()
-        layer = numba.threading_layer()
-    except (ImportError, ValueError):  # numba's internals moved: be safe
-        return "sync"
-    return "sync" if layer == "workqueue" else "threads"
-
-
 @keyboard_interrupts
 def sweep(
     meshes: Any,
@@ -601,7 +585,10 @@ def _run_local(dask: Any, delayed: list[Any], progress: bool,
 
 
 def _compute_local(dask: Any, delayed: list[Any], progress: bool) -> list[Any]:
-    scheduler = _local_scheduler()
+    # Dask's threads on every numba threading layer: the kernels are plain nogil
+    # kernels (no parfors, which numba's workqueue layer cannot run from two
+    # threads at once)
+    scheduler = "threads"
     if not progress:
         return list(dask.compute(*delayed, scheduler=scheduler))
     from dask.callbacks import Callback

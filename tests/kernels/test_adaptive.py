@@ -12,6 +12,7 @@ from vecslice._kernels.adaptive import (
     TAU,
     adaptive_layers,
     face_slopes,
+    face_slopes_range,
     zmin_order,
 )
 
@@ -115,6 +116,30 @@ def test_no_fused_multiply_add_and_no_vector_math_library(kernel):
     assert re.search(r"\bv?(mul|div)sd\b", asm)  # the scalar double code is there
     assert not re.search(r"\bv?f(n)?m(add|sub)\w*", asm)
     assert "svml" not in asm.lower()
+
+
+@pytest.mark.skipif(numba.config.DISABLE_JIT, reason="no machine code without JIT")
+def test_the_range_kernel_has_no_fused_multiply_add_either():
+    # the library runs face_slopes_range on chunks of faces: the same check
+    asm = _fresh_asm(face_slopes_range)
+    assert re.search(r"\bv?(mul|div)sd\b", asm)
+    assert not re.search(r"\bv?f(n)?m(add|sub)\w*", asm)
+    assert "svml" not in asm.lower()
+
+
+@given(triangles(), st.data())
+def test_face_slopes_range_in_any_chunks_equals_face_slopes(case, data):
+    verts, faces, dz = case
+    n = len(faces)
+    cuts = sorted(data.draw(st.lists(st.integers(0, n), max_size=4)))
+    bounds = [0, *cuts, n]
+    face_z = np.full((n, 2), -7, dtype=np.int64)
+    slope = np.full(n, -7.0)
+    for f0, f1 in reversed(list(zip(bounds[:-1], bounds[1:], strict=True))):
+        face_slopes_range(verts, faces, dz, f0, f1, face_z, slope)
+    want_z, want_slope = face_slopes(verts, faces, dz)
+    assert face_z.tolist() == want_z.tolist()
+    assert slope.tobytes() == want_slope.tobytes()  # bit for bit, NaNs included
 
 
 # --- the layer loop ----------------------------------------------------------------

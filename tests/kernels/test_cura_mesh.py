@@ -1,10 +1,12 @@
 """CuraEngine's vertex melding and face adjacency (kernels/cura_mesh.py)."""
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
 import reference_cura as ref
+from strategies import run_reversed
 from vecslice._kernels.cura_mesh import face_neighbours, meld_corners, vertex_faces
 
 # values around CuraEngine's hash cell boundaries: q = trunc((c + 15) / 30)
@@ -101,3 +103,52 @@ def test_non_manifold_edge_picks_smallest_angle():
     f2 = np.array([[0, 1, 2], [1, 0, 3], [1, 0, 3]], dtype=np.int64)
     o2, i2 = vertex_faces(f2, 5)
     assert face_neighbours(v, f2, o2, i2)[0, 0] == 1
+
+
+def _random_soup(seed, n_vertices, n_faces, spread):
+    """Random faces over few vertices: shared, open and non-manifold edges."""
+    rng = np.random.default_rng(seed)
+    v = rng.integers(-spread, spread, size=(n_vertices, 3)).astype(np.int64)
+    f = rng.integers(0, n_vertices, size=(n_faces, 3)).astype(np.int64)
+    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+    return v, np.ascontiguousarray(f[keep])
+
+
+@pytest.mark.parametrize("run", ["reversed", "threads"])
+def test_face_neighbours_in_chunks_equal_one_chunk(monkeypatch, run):
+    # small chunks of faces, last to first or on threads: each chunk writes its
+    # own rows, so the result is the single chunk's
+    import vecslice._kernels.cura_mesh as cura_mesh
+    from vecslice._threads import run_chunks
+
+    v, f = _random_soup(11, 300, 3000, 5000)
+    offsets, items = vertex_faces(f, len(v))
+    want = face_neighbours(v, f, offsets, items)
+    monkeypatch.setattr(cura_mesh, "_FACE_CHUNK", 37)
+    got = face_neighbours(v, f, offsets, items,
+                          run_reversed if run == "reversed" else run_chunks)
+    assert got.tolist() == want.tolist()
+    assert (want >= 0).sum() > 1000  # the case has neighbours to check
+
+
+@pytest.mark.parametrize("run", ["reversed", "threads"])
+def test_meld_in_chunks_equals_one_chunk(monkeypatch, run):
+    # corners in a small box: many cells holding several corners each, melded in
+    # small chunks of cells, last to first or on threads
+    import vecslice._kernels.cura_mesh as cura_mesh
+    from vecslice._threads import run_chunks
+
+    c = np.random.default_rng(3).integers(-150, 150, size=(6000, 3))
+    a = c + 15
+    q = np.where(a < 0, -(-a // 30), a // 30)
+    order = np.lexsort((q[:, 2], q[:, 1], q[:, 0])).astype(np.int64)
+    qs = q[order]
+    new = np.ones(len(c), dtype=bool)
+    new[1:] = (qs[1:] != qs[:-1]).any(axis=1)
+    cells = np.append(np.flatnonzero(new), len(c)).astype(np.int64)
+    want = meld_corners(c, order, cells, 30)
+    monkeypatch.setattr(cura_mesh, "_MELD_CHUNK", 23)
+    got = meld_corners(c, order, cells, 30,
+                       run_reversed if run == "reversed" else run_chunks)
+    assert got.tolist() == want.tolist()
+    assert (want != np.arange(len(c))).sum() > 1000  # the case melds corners

@@ -367,3 +367,25 @@ def test_faces_are_prepared_once_per_mesh_and_frame(monkeypatch):
                                       frame=f)
         for a, b in zip(schedule, want, strict=True):
             assert a.tolist() == b.tolist()
+
+
+@pytest.mark.parametrize("frame", ["mesh", "bed"])
+def test_faces_in_small_chunks_on_threads_give_the_same_bits(monkeypatch, frame):
+    # the faces' slopes are computed in chunks on threads (a plain kernel per
+    # chunk, not a parfor): in chunks of 97 faces they equal the serial kernel's
+    import vecslice.adaptive as adaptive
+    from vecslice._kernels.adaptive import face_slopes as serial
+
+    sphere = trimesh.creation.icosphere(subdivisions=3, radius=10)
+    sphere.apply_translation((0, 0, 12))
+    mesh = vs.load_mesh(sphere)
+    want_z, want_slope = serial(mesh.vertices, mesh.faces,
+                                0 if frame == "bed" else mesh.zrange[0])
+    want = adaptive_layer_heights(mesh, frame=frame)
+    monkeypatch.setattr(adaptive, "_FACE_CHUNK", 97)
+    face_z, slope = face_slopes(mesh, frame=frame)
+    assert face_z.tolist() == want_z.tolist()
+    assert slope.tobytes() == want_slope.tobytes()
+    fresh = vs.Mesh.from_arrays(mesh.vertices, mesh.faces)
+    got = adaptive_layer_heights(fresh, frame=frame)
+    assert all(g.tolist() == w.tolist() for g, w in zip(got, want, strict=True))

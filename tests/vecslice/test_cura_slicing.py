@@ -171,3 +171,42 @@ def test_cura_topology_is_built_once_per_mesh(monkeypatch):
     vs.slice_mesh(mesh.translated(1000, 0, 0), settings)
     vs.slice_mesh(vs.Mesh.from_arrays(mesh.vertices, mesh.faces), settings)
     assert len(calls) == 3
+
+
+def _raw_arrays(raw):
+    p = raw.polygons
+    return [p.coords, p.ring_offsets, p.layer_offsets, p.open.coords,
+            p.open.ring_offsets, p.open.layer_offsets, raw.explicit, raw.stats]
+
+
+@pytest.mark.parametrize("name", ["teapot.stl", "Voron_Design_Cube_v7.stl"])
+def test_small_chunks_on_threads_give_the_same_slices(meshes_dir, monkeypatch, name):
+    # the compat kernels run in chunks (of corners, faces, planes) on threads: in
+    # chunks of a few items each, loading, the raw stage and the whole slice come
+    # out as in one chunk. teapot.stl has open edges, the cube faces on planes
+    import vecslice._kernels.cura_loops as cura_loops
+    import vecslice._kernels.cura_mesh as cura_mesh
+    import vecslice._kernels.cura_segments as cura_segments
+
+    settings = vs.SliceSettings(compat="cura", layer_height=150)
+
+    def run():
+        mesh = vs.load_mesh(meshes_dir / name, compat="cura")
+        lo, hi = mesh.zrange
+        raw = cura_raw(mesh, np.arange(lo, hi + 1, 50))  # also through vertices
+        model = vs.slice_mesh(mesh, settings)
+        return [mesh.vertices, mesh.faces, *_raw_arrays(raw), model.coords,
+                model.ring_offsets, model.part_offsets, model.layer_offsets]
+
+    want = run()
+    for module, name_, size in [(cura_mesh, "_MELD_CHUNK", 40),
+                                (cura_mesh, "_FACE_CHUNK", 30),
+                                (cura_segments, "_SLOT_CHUNK", 50),
+                                (cura_loops, "_SEGMENT_CHUNK", 20)]:
+        monkeypatch.setattr(module, name_, size)
+    got = run()
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, w)
+    assert want[2].shape[0] > 10_000  # the raw loops' points
+    if name == "teapot.stl":
+        assert want[9][:, 2].sum() > 100  # open chains before stitching

@@ -4,6 +4,7 @@ import sys
 import threading
 import time
 
+import numba
 import numpy as np
 import pytest
 import trimesh
@@ -316,20 +317,50 @@ def test_max_layers_gives_error_rows(box):
     assert t["error"][0].startswith("SettingsError") and np.isnan(t["layers"][0])
 
 
-@pytest.mark.parametrize("layer, expected",
-                         [("workqueue", "sync"), ("default", "threads")])
-def test_local_scheduler_avoids_threads_on_numbas_workqueue_layer(layer, expected):
-    """Workqueue aborts when two threads launch parfors (cura, adaptive rows)."""
+_SWEEP_ON_WORKQUEUE = r"""
+import dask, numba
+import vecslice as vs
+
+used = []
+compute = dask.compute
+
+
+def spy(*args, **kw):
+    used.append(kw.get("scheduler"))
+    return compute(*args, **kw)
+
+
+dask.compute = spy
+meshes = {"a": vs.demo_mesh(segments=192), "b": vs.demo_mesh(segments=256)}
+grid = [{"adaptive_layers": True}, {"compat": "cura"},
+        {"adaptive_layers": True, "compat": "cura"}, {}]
+t = vs.sweep(meshes, grid)
+assert used == ["threads"], used
+assert (t["error"] == "").all(), t["error"].tolist()
+for row in t.itertuples():
+    s = vs.SliceSettings(adaptive_layers=row.adaptive_layers, compat=row.compat)
+    model = vs.slice_mesh(meshes[row.mesh], s)
+    assert (row.layers, row.vertices) == (model.n_layers, model.coords.shape[0])
+print("ok", len(t), numba.threading_layer())
+"""
+
+
+@pytest.mark.skipif(numba.config.DISABLE_JIT,
+                    reason="NUMBA_DISABLE_JIT=1: nothing compiled, too slow as Python")
+def test_sweep_runs_on_threads_on_numbas_workqueue_layer(tmp_path):
+    """Dask's threads on numba's workqueue layer too: no kernel is a parfor.
+
+    That layer (numba's fallback without OpenMP or TBB) aborts the process when
+    two threads run parfors at once; the sweep ran serially there while the cura
+    and adaptive kernels were parfors.
+    """
     import subprocess
 
-    code = ("import numba; from vecslice.sweeps import _local_scheduler; "
-            "print(_local_scheduler(), numba.threading_layer())")
-    env = dict(os.environ, NUMBA_THREADING_LAYER=layer)
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                         text=True, check=True).stdout.split()
-    if layer == "default" and out[1] == "workqueue":
-        pytest.skip("no omp or tbb threading layer on this machine")
-    assert out[0] == expected
+    env = dict(os.environ, NUMBA_THREADING_LAYER="workqueue")
+    p = subprocess.run([sys.executable, "-c", _SWEEP_ON_WORKQUEUE], cwd=tmp_path,
+                       env=env, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr[-3000:]
+    assert p.stdout.split() == ["ok", "8", "workqueue"]
 
 
 @pytest.mark.parametrize("stage", ["simplify", "parts", "errors"])

@@ -1,5 +1,7 @@
+import os
 import threading
 
+import numba
 import numpy as np
 import pytest
 
@@ -102,3 +104,71 @@ def test_chunks_cover_all_rings_with_about_equal_vertex_counts():
     assert per_chunk.max() - per_chunk.min() <= 2 * 200
 
 
+
+
+_CONCURRENT = r"""
+import hashlib, threading
+import numba, numpy as np
+import vecslice as vs
+
+ADAPTIVE = vs.SliceSettings(adaptive_layers=True)
+CURA = vs.SliceSettings(compat="cura")
+
+
+def digest(arrays):
+    h = hashlib.sha256()
+    for a in arrays:
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
+
+
+def model(m):
+    return digest([m.slice_z, m.print_z, m.thickness, m.layer_offsets,
+                   m.part_offsets, m.ring_offsets, m.coords])
+
+
+def job(k, wait):
+    # fresh meshes: nothing cached on them (the faces' slopes, the cura topology)
+    mesh = lambda: vs.demo_mesh(segments=192 + 64 * k)
+    out = []
+    wait()
+    out.append(digest(vs.adaptive_layer_heights(mesh(), ADAPTIVE)))
+    wait()
+    out.append(model(vs.slice_mesh(mesh(), ADAPTIVE)))
+    wait()
+    out.append(model(vs.slice_mesh(mesh(), CURA)))
+    return out
+
+
+serial = [job(k, lambda: None) for k in range(2)]
+barrier = threading.Barrier(2, timeout=120)
+for _ in range(ROUNDS):
+    got = [None, None]
+
+    def work(k):
+        got[k] = job(k, barrier.wait)
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(2)]
+    [t.start() for t in threads]
+    [t.join() for t in threads]
+    assert got == serial, (got, serial)
+print("ok", numba.threading_layer(), numba.get_num_threads())
+"""
+
+
+@pytest.mark.skipif(numba.config.DISABLE_JIT,
+                    reason="NUMBA_DISABLE_JIT=1: nothing compiled, too slow as Python")
+def test_two_threads_slice_at_once_on_numbas_workqueue_layer(tmp_path):
+    # numba's fallback threading layer (no OpenMP, no TBB) aborts the whole
+    # process (SIGABRT) when two threads run parfors at once: adaptive schedules,
+    # adaptive and cura slices from two threads, started together on fresh
+    # meshes, must come out as one after another, and the process must live
+    import subprocess
+    import sys
+
+    env = dict(os.environ, NUMBA_THREADING_LAYER="workqueue")
+    p = subprocess.run([sys.executable, "-c", _CONCURRENT.replace("ROUNDS", "3")],
+                       cwd=tmp_path, env=env, capture_output=True, text=True,
+                       timeout=600)
+    assert p.returncode == 0, p.stderr[-3000:]
+    assert p.stdout.split()[:2] == ["ok", "workqueue"]
