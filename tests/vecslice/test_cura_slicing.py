@@ -171,3 +171,15 @@ def test_cura_topology_is_built_once_per_mesh(monkeypatch):
     vs.slice_mesh(mesh.translated(1000, 0, 0), settings)
     vs.slice_mesh(vs.Mesh.from_arrays(mesh.vertices, mesh.faces), settings)
     assert len(calls) == 3
+
+
+def test_heights_are_checked_on_the_copy_the_kernels_read(write_when_copied):
+    """Audit s26 state D2: the sorted order of slice_z was checked in the caller's
+    memory, which the kernels then read (a write in between reached them
+    unchecked). Here the write lands just before the copy."""
+    z = np.array([100, 500], np.int64)
+    writes = write_when_copied(z, 0, 900)
+    with pytest.raises(vs.InputValueError, match=r"`slice_z` must be sorted "
+                       r"\(non-decreasing\); got 900 > 500 at index 0"):
+        cura_raw(_prism(), z)
+    assert writes == [0]
