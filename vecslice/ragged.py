@@ -37,6 +37,7 @@ __all__ = [
     "offsets_from_lengths",
     "private_int_array",
     "ragged_take",
+    "reduce_frozen",
 ]
 
 C = TypeVar("C", bound="RaggedContainer")
@@ -286,3 +287,23 @@ class RaggedContainer:
 def _rebuild(cls: type[C], values: dict[str, Any]) -> C:
     """Unpickle a container: its (fresh) arrays are frozen, nothing re-validated."""
     return cls._trusted(**values)
+
+
+def reduce_frozen(obj: Any) -> tuple[Any, ...]:
+    """``__reduce__`` of a frozen dataclass holding read-only arrays.
+
+    Unpickling and ``copy.deepcopy`` go through a dataclass's own ``__setstate__``,
+    which stores the (fresh, writeable) arrays as they come; with this, they come
+    back through :func:`_rebuild_frozen`, which freezes them as the constructor did.
+    """
+    names = [f.name for f in dataclasses.fields(obj)]
+    return (_rebuild_frozen, (type(obj), {n: getattr(obj, n) for n in names}))
+
+
+def _rebuild_frozen(cls: type[Any], values: dict[str, Any]) -> Any:
+    """Unpickle or copy a dataclass of :func:`reduce_frozen`: its arrays frozen."""
+    self = object.__new__(cls)
+    for name, value in values.items():
+        object.__setattr__(
+            self, name, freeze(value) if isinstance(value, np.ndarray) else value)
+    return self

@@ -183,3 +183,19 @@ def test_heights_are_checked_on_the_copy_the_kernels_read(write_when_copied):
                        r"\(non-decreasing\); got 900 > 500 at index 0"):
         cura_raw(_prism(), z)
     assert writes == [0]
+
+
+def test_cura_layers_copies_stay_read_only():
+    """Audit s26 state D3 (as ContourErrors): CuraLayers froze its arrays in
+    __post_init__, which unpickling and deepcopy skip."""
+    import copy
+    import pickle
+
+    raw = cura_raw(_prism(), [500])
+    for clone in (pickle.loads(pickle.dumps(raw)), copy.deepcopy(raw), copy.copy(raw)):
+        for name in ("explicit", "stats"):
+            a = getattr(clone, name)
+            assert np.array_equal(a, getattr(raw, name)) and not a.flags.writeable
+            with pytest.raises(ValueError):
+                a.flags.writeable = True
+        assert clone.polygons.coords.tolist() == raw.polygons.coords.tolist()
