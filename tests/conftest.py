@@ -46,3 +46,46 @@ def testdata_dir() -> Path:
 def load_testdata(name: str) -> object:
     """Parse ../shared/testdata/<name>, skipping if the folder is absent."""
     return json.loads(_need(TESTDATA / name).read_text())
+
+
+@pytest.fixture
+def write_when_copied(monkeypatch):
+    """Another thread's write to a caller's array, just before vecslice copies it.
+
+    ``arm(target, index, value)`` makes ``target[index] = value`` happen once,
+    when vecslice adopts ``target`` or a view of it (``vecslice.ragged.adopt``:
+    the copy a container or function keeps). A check made on the caller's memory
+    before that copy misses the write; one made on the copy sees it. No copy, no
+    write. ``arm`` returns the list of the writes done so far (all arms).
+    """
+    import importlib
+
+    import numpy as np
+
+    ragged = importlib.import_module("vecslice.ragged")
+    real = ragged.adopt
+    armed: list[tuple[np.ndarray, object, object]] = []
+    done: list[object] = []
+
+    def adopt(new, given):
+        for entry in list(armed):
+            target, index, value = entry
+            if given is target or (isinstance(given, np.ndarray)
+                                   and np.may_share_memory(given, target)):
+                target[index] = value
+                done.append(index)
+                armed.remove(entry)
+        return real(new, given)
+
+    # every module that took the name (imported first, so none keeps the patch)
+    for name in ("cura_slicing", "cura_stl", "layerparts", "mesh", "metrics",
+                 "paths", "ragged", "simplify", "slicing", "storage"):
+        module = importlib.import_module(f"vecslice.{name}")
+        if getattr(module, "adopt", None) is real:
+            monkeypatch.setattr(module, "adopt", adopt)
+
+    def arm(target, index, value):
+        armed.append((target, index, value))
+        return done
+
+    return arm

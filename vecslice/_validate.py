@@ -21,8 +21,10 @@ __all__ = [
     "as_int_array",
     "as_offsets",
     "check_bool",
+    "check_coord_range",
     "check_int",
     "check_layer_count",
+    "check_offsets",
     "check_option",
 ]
 
@@ -39,7 +41,9 @@ def as_int_array(
     """Return ``value`` as a C-contiguous int64 array, checking dtype and shape.
 
     Integer dtypes (any width, signed or unsigned) are accepted and widened to int64;
-    floats, bools and objects are rejected with an :class:`InputTypeError`.
+    floats, bools and objects are rejected with an :class:`InputTypeError`. The
+    result may be the caller's own array: for arrays that are stored or read by
+    kernels, take :func:`vecslice.ragged.private_int_array` and check its values.
     """
     if isinstance(value, (str, bytes)) or value is None:
         raise InputTypeError(
@@ -99,6 +103,12 @@ def as_offsets(value: ArrayLike, n_below: int, name: str) -> NDArray[np.int64]:
     decrease.
     """
     a = as_int_array(value, name, ndim=1)
+    check_offsets(a, n_below, name)
+    return a
+
+
+def check_offsets(a: NDArray[np.int64], n_below: int, name: str) -> None:
+    """Raise unless the int64 array ``a`` is valid offsets (see :func:`as_offsets`)."""
     if a.shape[0] < 1:
         raise LayoutError(f"`{name}` must have length >= 1; got an empty array")
     if a[0] != 0:
@@ -112,7 +122,6 @@ def as_offsets(value: ArrayLike, n_below: int, name: str) -> NDArray[np.int64]:
     if bad.size:
         i = int(bad[0])
         raise LayoutError(f"`{name}` decreases at index {i}: {a[i]} > {a[i + 1]}")
-    return a
 
 
 def check_int(

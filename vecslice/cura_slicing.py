@@ -33,7 +33,7 @@ from vecslice._kernels.cura_stitch import connect_open_polylines
 from vecslice._threads import run_chunks
 from vecslice.errors import InputValueError
 from vecslice.paths import LayerPaths
-from vecslice.ragged import freeze
+from vecslice.ragged import freeze, reduce_frozen
 from vecslice.slicing import _check_mesh, _check_slice_z
 
 __all__ = ["NO_COMPENSATION", "STITCH_ROUNDS", "CuraLayers", "concat_layers",
@@ -75,6 +75,10 @@ class CuraLayers:
         object.__setattr__(self, "explicit", freeze(self.explicit))
         if self.stats is not None:
             object.__setattr__(self, "stats", freeze(self.stats))
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickles and copies hold read-only arrays too (see ragged.reduce_frozen)."""
+        return reduce_frozen(self)
 
 
 def concat_layers(a: LayerPaths, b: LayerPaths) -> LayerPaths:

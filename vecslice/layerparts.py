@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vecslice.errors import LayoutError
 from vecslice.paths import exact_area2
-from vecslice.ragged import RaggedContainer, adopt, check_index, nested_offsets
+from vecslice.ragged import RaggedContainer, check_index, nested_offsets
 
 __all__ = ["LayerParts", "PartsLayout", "check_part_rings"]
 
@@ -186,16 +186,14 @@ class LayerParts(PartsLayout):
         part_offsets: ArrayLike,
         layer_offsets: ArrayLike,
     ) -> None:
-        given = {"coords": coords, "ring_offsets": ring_offsets,
-                 "part_offsets": part_offsets, "layer_offsets": layer_offsets}
+        # private copies, validated after copying (see ragged.nested_offsets)
         arrays = nested_offsets(coords, [
             ("ring_offsets", ring_offsets), ("part_offsets", part_offsets),
             ("layer_offsets", layer_offsets),
         ])
         check_part_rings(*arrays)
-        self._set_fields({
-            name: adopt(a, given[name]) for name, a in zip(given, arrays, strict=True)
-        })
+        names = ("coords", "ring_offsets", "part_offsets", "layer_offsets")
+        self._set_fields(dict(zip(names, arrays, strict=True)))
 
     def layer(self, k: int) -> list[Part]:
         """Parts of layer ``k`` as ``[(outline (n, 2), [holes]), ...]`` views."""

@@ -18,7 +18,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vecslice._validate import (
-    as_int_array,
     check_bool,
     check_coord_range,
     check_int,
@@ -38,6 +37,7 @@ from vecslice.meshcheck import (
     shells,
 )
 from vecslice.meshfile import read_mesh_file, trimesh_arrays
+from vecslice.ragged import private_int_array
 from vecslice.units import COORD_LIMIT, to_microns
 
 if TYPE_CHECKING:
@@ -60,6 +60,11 @@ def _check_load_info(value: object) -> None:
 
 
 def _as_vertices(value: ArrayLike) -> NDArray[np.int64]:
+    """The mesh's own copy of ``value`` (frozen), checked after it was copied.
+
+    Checks on the caller's memory and a copy taken afterwards could differ (a
+    write by another thread in between); kernels index without bounds checks.
+    """
     a = value if isinstance(value, np.ndarray) else None
     if a is not None and a.dtype.kind == "f" and a.size:
         raise InputTypeError(
@@ -67,13 +72,14 @@ def _as_vertices(value: ArrayLike) -> NDArray[np.int64]:
             "with vecslice.load_mesh() or convert millimetres with "
             "vecslice.to_microns()"
         )
-    v = as_int_array(value, "vertices", ndim=2, width=3)
+    v = private_int_array(value, "vertices", ndim=2, width=3)
     check_coord_range(v, "vertices")
     return v
 
 
 def _as_faces(value: ArrayLike, n_vertices: int) -> NDArray[np.int64]:
-    f = as_int_array(value, "faces", ndim=2, width=3)
+    """The mesh's own copy of ``value`` (frozen), checked as :func:`_as_vertices`."""
+    f = private_int_array(value, "faces", ndim=2, width=3)
     if f.shape[0] == 0:
         raise InputValueError(
             "`faces` must hold at least one triangle; got an empty mesh "
@@ -152,14 +158,12 @@ class Mesh:
         *,
         load_info: LoadInfo | None = None,
     ) -> None:
-        from vecslice.ragged import adopt
-
         _check_load_info(load_info)
-        v = _as_vertices(vertices)
-        f = _as_faces(faces, v.shape[0])
         # copied unless numpy made them afresh: never the caller's memory (an
-        # object's __array__ may hand out its own array), never frozen in place
-        self._set(adopt(v, vertices), adopt(f, faces), load_info)
+        # object's __array__ may hand out its own array), never frozen in place;
+        # checked after copying
+        v = _as_vertices(vertices)
+        self._set(v, _as_faces(faces, v.shape[0]), load_info)
 
     def _set(
         self, v: NDArray[np.int64], f: NDArray[np.int64], info: LoadInfo | None
@@ -305,12 +309,12 @@ class Mesh:
         """
         check_bool(merge, "merge")
         _check_load_info(load_info)
-        v = _as_vertices(vertices_um)
-        f = _as_faces(faces, v.shape[0])
+        v = _as_vertices(vertices_um)  # private copies, checked: what the merge
+        f = _as_faces(faces, v.shape[0])  # kernels read (and no other copy)
         base = load_info if load_info is not None else LoadInfo(
             "arrays", int(f.shape[0]), int(v.shape[0]))
         if not merge:
-            return cls(v, f, load_info=base)
+            return cls._trusted(v, f, base)
         v2, f2, n_merged, n_unused, n_deg = clean_arrays(v, f)
         if f2.shape[0] == 0:
             raise InputValueError(
@@ -685,6 +689,7 @@ def load_mesh(
                 f"`path_or_trimesh` must be a file path (str); got {exc}") from None
         source = f"'{path}'"
         v, f = read_mesh_file(path)
+        f = _freeze(f)  # made by the reader: ours
     elif (arrays := trimesh_arrays(path_or_trimesh)) is not None:
         v, f, source = arrays
         if f.shape[0] == 0:
@@ -698,7 +703,9 @@ def load_mesh(
                     name="vertices")
     info = LoadInfo(source.strip("'"), int(f.shape[0]), int(v.shape[0]))
     try:
-        mesh = Mesh.from_arrays(um, f, load_info=info)
+        # frozen arrays are handed over without a copy (a trimesh's faces are
+        # its own: from_arrays copies them)
+        mesh = Mesh.from_arrays(_freeze(um), f, load_info=info)
         if repair:
             mesh = mesh.repaired()
     except InputValueError as exc:

@@ -10,7 +10,7 @@ over faces or vertices in Python.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from vecslice._kernels.vertices import clean_mesh
 from vecslice._threads import run_chunks
 from vecslice.nesting import outermost_container
-from vecslice.ragged import freeze
+from vecslice.ragged import adopt, freeze, reduce_frozen
 
 __all__ = ["LoadInfo", "MeshReport", "build_report", "clean_arrays"]
 
@@ -333,6 +333,14 @@ class MeshReport:
     volume: float
     bounds: NDArray[np.int64]
     load_info: LoadInfo | None = None
+
+    def __post_init__(self) -> None:
+        # read-only, like every container's arrays (copied if the caller's)
+        object.__setattr__(self, "bounds", adopt(np.asarray(self.bounds), self.bounds))
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickles and copies hold read-only bounds too (see ragged.reduce_frozen)."""
+        return reduce_frozen(self)
 
     @property
     def is_closed(self) -> bool:

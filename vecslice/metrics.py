@@ -28,7 +28,7 @@ from vecslice.errors import InputTypeError, InputValueError
 from vecslice.interrupt import keyboard_interrupts
 from vecslice.moves import MoveStats, _check_number, move_stats
 from vecslice.paths import LayerPaths
-from vecslice.ragged import adopt, freeze
+from vecslice.ragged import adopt, freeze, reduce_frozen
 from vecslice.settings import SliceSettings
 from vecslice.staircase import VolumeStats, volume_error
 from vecslice.storage import SlicedModel, check_model
@@ -104,6 +104,10 @@ class ContourErrors:
                      "linear", "ring_layer", "raw_area_um2"):
             given = getattr(self, name)
             object.__setattr__(self, name, adopt(np.asarray(given), given))
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickles and copies hold read-only arrays too (see ragged.reduce_frozen)."""
+        return reduce_frozen(self)
 
     @property
     def n_layers(self) -> int:

@@ -10,15 +10,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vecslice._kernels.rings import AREA2_BEYOND_INT64, ring_area2
-from vecslice._validate import as_coords, check_int
+from vecslice._validate import as_int_array, check_coord_range, check_int
 from vecslice.errors import InputTypeError, InputValueError, LayoutError
 from vecslice.ragged import (
     RaggedContainer,
-    adopt,
     check_index,
     nested_offsets,
     offsets_from_lengths,
 )
+from vecslice.units import COORD_LIMIT
 
 __all__ = ["LayerPaths", "Paths", "exact_area2"]
 
@@ -74,9 +74,9 @@ class Paths(RaggedContainer):
     ring_offsets: NDArray[np.int64]
 
     def __init__(self, coords: ArrayLike, ring_offsets: ArrayLike) -> None:
+        # private copies, validated after copying (see ragged.nested_offsets)
         c, o = nested_offsets(coords, [("ring_offsets", ring_offsets)])
-        self._set_fields({"coords": adopt(c, coords),
-                          "ring_offsets": adopt(o, ring_offsets)})
+        self._set_fields({"coords": c, "ring_offsets": o})
 
     @classmethod
     def from_rings(cls, rings: Iterable[ArrayLike]) -> Paths:
@@ -113,11 +113,17 @@ class Paths(RaggedContainer):
         for i, ring in enumerate(rings):
             if isinstance(ring, (list, tuple)) and len(ring) == 0:
                 ring = np.empty((0, 2), np.int64)
-            arrs.append(as_coords(ring, f"rings[{i}]"))
+            arrs.append(as_int_array(ring, f"rings[{i}]", ndim=2, width=2))
         offsets = offsets_from_lengths(np.array([len(r) for r in arrs], np.int64))
+        # a fresh copy of the rings, range-checked after copying (not the rings
+        # given, which their owner could change in between)
         coords = (
             np.concatenate(arrs) if arrs else np.empty((0, 2), dtype=np.int64)
         )
+        lim = COORD_LIMIT
+        if coords.size and not -lim < coords.min() <= coords.max() < lim:
+            for i, (a, b) in enumerate(itertools.pairwise(offsets.tolist())):
+                check_coord_range(coords[a:b], f"rings[{i}]")  # names the ring
         return cls._trusted(coords, offsets)
 
     def __len__(self) -> int:
@@ -202,7 +208,7 @@ class LayerPaths(RaggedContainer):
         layer_offsets: ArrayLike,
         open: LayerPaths | None = None,
     ) -> None:
-        c, r, lo = nested_offsets(
+        c, r, lo = nested_offsets(  # private copies, validated after copying
             coords, [("ring_offsets", ring_offsets), ("layer_offsets", layer_offsets)]
         )
         if open is not None and not isinstance(open, LayerPaths):
@@ -214,10 +220,8 @@ class LayerPaths(RaggedContainer):
             raise LayoutError(
                 f"`open` must have {lo.shape[0] - 1} layers; got {open.n_layers}"
             )
-        self._set_fields({
-            "coords": adopt(c, coords), "ring_offsets": adopt(r, ring_offsets),
-            "layer_offsets": adopt(lo, layer_offsets), "open": open,
-        })
+        self._set_fields(
+            {"coords": c, "ring_offsets": r, "layer_offsets": lo, "open": open})
 
     @classmethod
     def empty(cls, n_layers: int) -> LayerPaths:

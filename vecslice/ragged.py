@@ -6,6 +6,13 @@ int64 buffers with nested offsets (level ``k`` element ``i`` is
 ``items[offsets[i]:offsets[i + 1]]`` of the level below). This module holds what they
 share: validating nested offsets, holding arrays read-only, checking indices,
 building a container from arrays known to be valid, and whole-array ragged helpers.
+
+The order of the checks on a caller's array is: coerce it (dtype and shape, which
+no write can change), take the private frozen copy (:func:`private_int_array`),
+then check its values on that copy and pass only the copy on. Values checked on
+the caller's memory and copied afterwards could differ from what was checked
+(another thread writing the array in between), and kernels index without bounds
+checks.
 """
 
 from __future__ import annotations
@@ -17,7 +24,7 @@ from typing import Any, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._validate import as_coords, as_offsets
+from vecslice._validate import as_int_array, check_coord_range, check_offsets
 from vecslice.errors import InputIndexError, InputTypeError
 
 __all__ = [
@@ -28,7 +35,9 @@ __all__ = [
     "is_frozen",
     "nested_offsets",
     "offsets_from_lengths",
+    "private_int_array",
     "ragged_take",
+    "reduce_frozen",
 ]
 
 C = TypeVar("C", bound="RaggedContainer")
@@ -106,15 +115,37 @@ def adopt(new: NDArray[Any], given: object) -> NDArray[Any]:
     return freeze(new if fresh and new.flags.owndata else new.copy())
 
 
+def private_int_array(
+    value: ArrayLike, name: str, *, ndim: int, width: int | None = None
+) -> NDArray[np.int64]:
+    """``value`` as a frozen C-contiguous int64 array that its caller cannot write.
+
+    Dtype and shape are checked (:func:`vecslice._validate.as_int_array`), then
+    the array is adopted (:func:`adopt`: copied unless numpy made it afresh or it
+    is frozen already). Values are not checked: check them on the result, which
+    is what the caller stores or passes to kernels.
+
+    Examples
+    --------
+    >>> given = np.array([0, 2, 3])
+    >>> a = private_int_array(given, "ring_offsets", ndim=1)
+    >>> given[1] = 9
+    >>> a.tolist(), a.flags.writeable
+    ([0, 2, 3], False)
+    """
+    return adopt(as_int_array(value, name, ndim=ndim, width=width), value)
+
+
 def nested_offsets(
     coords: ArrayLike, levels: Sequence[tuple[str, ArrayLike]], name: str = "coords"
 ) -> list[NDArray[np.int64]]:
-    """Validate ``coords`` and a chain of offsets, innermost level first.
+    """Private copies of ``coords`` and a chain of offsets, validated.
 
-    ``levels`` is ``[(name, offsets), ...]``: the first offsets index ``coords``,
-    each next one the elements of the previous; ``name`` is how messages call
-    ``coords``. Returns the coerced arrays ``[coords, offsets_0, offsets_1, ...]``
-    (not yet frozen).
+    ``levels`` is ``[(name, offsets), ...]``, innermost level first: the first
+    offsets index ``coords``, each next one the elements of the previous;
+    ``name`` is how messages call ``coords``. Returns the frozen arrays
+    ``[coords, offsets_0, offsets_1, ...]`` (:func:`private_int_array`); each is
+    validated after it was copied, so what was checked is what is returned.
 
     Examples
     --------
@@ -123,10 +154,12 @@ def nested_offsets(
     >>> r.tolist(), lo.tolist()
     ([0, 3], [0, 1])
     """
-    out = [as_coords(coords, name)]
+    out = [private_int_array(coords, name, ndim=2, width=2)]
+    check_coord_range(out[0], name)
     below = out[0].shape[0]
-    for name, offsets in levels:
-        o = as_offsets(offsets, below, name)
+    for level, offsets in levels:
+        o = private_int_array(offsets, level, ndim=1)
+        check_offsets(o, below, level)
         out.append(o)
         below = o.shape[0] - 1
     return out
@@ -254,3 +287,23 @@ class RaggedContainer:
 def _rebuild(cls: type[C], values: dict[str, Any]) -> C:
     """Unpickle a container: its (fresh) arrays are frozen, nothing re-validated."""
     return cls._trusted(**values)
+
+
+def reduce_frozen(obj: Any) -> tuple[Any, ...]:
+    """``__reduce__`` of a frozen dataclass holding read-only arrays.
+
+    Unpickling and ``copy.deepcopy`` go through a dataclass's own ``__setstate__``,
+    which stores the (fresh, writeable) arrays as they come; with this, they come
+    back through :func:`_rebuild_frozen`, which freezes them as the constructor did.
+    """
+    names = [f.name for f in dataclasses.fields(obj)]
+    return (_rebuild_frozen, (type(obj), {n: getattr(obj, n) for n in names}))
+
+
+def _rebuild_frozen(cls: type[Any], values: dict[str, Any]) -> Any:
+    """Unpickle or copy a dataclass of :func:`reduce_frozen`: its arrays frozen."""
+    self = object.__new__(cls)
+    for name, value in values.items():
+        object.__setattr__(
+            self, name, freeze(value) if isinstance(value, np.ndarray) else value)
+    return self

@@ -19,11 +19,11 @@ from vecslice._kernels.simplify import (
 from vecslice._kernels.simplify import ring_perimeters as _ring_perimeters_kernel
 from vecslice._kernels.simplify import simplify_range
 from vecslice._threads import chunk_bounds, run_chunks
-from vecslice._validate import as_coords, as_int_array, check_int
+from vecslice._validate import check_coord_range, check_int
 from vecslice.errors import InputTypeError, InputValueError, LayoutError
 from vecslice.interrupt import keyboard_interrupts
 from vecslice.paths import Paths
-from vecslice.ragged import RaggedContainer
+from vecslice.ragged import RaggedContainer, private_int_array
 from vecslice.units import COORD_LIMIT
 
 __all__ = ["remove_degenerate_vertices", "ring_perimeters", "simplify"]
@@ -118,7 +118,7 @@ def _check_paths(paths: object) -> Paths:
 
 
 def _check_widths(widths: ArrayLike, n: int) -> NDArray[np.int64]:
-    w = as_int_array(widths, "widths", ndim=1)
+    w = private_int_array(widths, "widths", ndim=1)  # checked after copying
     if w.shape[0] != n:
         raise LayoutError(
             f"`widths` must have one entry per vertex ({n}); got {w.shape[0]}"
@@ -238,7 +238,9 @@ def simplify(
             "`simplify(loops.paths())`; every layer of a slice, with a "
             "SliceSettings' thresholds: `vs.clean_loops(loops, settings)`)")
     else:
-        coords = as_coords(paths, "paths")
+        # a private copy, checked after copying: the kernel reads what was checked
+        coords = private_int_array(paths, "paths", ndim=2, width=2)
+        check_coord_range(coords, "paths")
         offsets = np.array([0, coords.shape[0]], dtype=np.int64)
     if widths is None:
         c, o = simplify_rings(coords, offsets, bool(closed), res, dev, area)

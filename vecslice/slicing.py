@@ -11,7 +11,6 @@ from numpy.typing import ArrayLike, NDArray
 from vecslice._kernels.contours import trace_contours, vertex_layers
 from vecslice._threads import run_chunks
 from vecslice._validate import (
-    as_int_array,
     check_bool,
     check_coord_range,
     check_int,
@@ -20,6 +19,7 @@ from vecslice._validate import (
 from vecslice.errors import InputTypeError
 from vecslice.interrupt import keyboard_interrupts
 from vecslice.paths import LayerPaths
+from vecslice.ragged import private_int_array
 from vecslice.settings import MAX_LAYERS
 from vecslice.stitch import stitch as stitch_chains
 
@@ -63,7 +63,8 @@ def _check_mesh(
 
 
 def _check_slice_z(slice_z: ArrayLike) -> NDArray[np.int64]:
-    z = as_int_array(slice_z, "slice_z", ndim=1)
+    """Private copy of ``slice_z``, checked after copying: the kernels read only it."""
+    z = private_int_array(slice_z, "slice_z", ndim=1)
     check_coord_range(z, "slice_z")
     return z
 

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vecslice._validate import as_int_array, as_offsets, check_bool, check_int
+from vecslice._validate import check_bool, check_int, check_offsets
 from vecslice.errors import (
     InputTypeError,
     InputValueError,
@@ -33,7 +33,7 @@ from vecslice.npz import (
     write_atomic,
 )
 from vecslice.paths import LayerPaths
-from vecslice.ragged import adopt, freeze, nested_offsets
+from vecslice.ragged import freeze, nested_offsets, private_int_array
 from vecslice.units import COORD_LIMIT
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "SlicedModel", "load_sliced"]
@@ -53,9 +53,10 @@ _FIELDS = (
 def _layer_offsets(
     given: dict[str, Any], prefix: str, below: NDArray[np.int64], n: int
 ) -> NDArray[np.int64]:
-    """``given[prefix + 'layer_offsets']`` checked: into ``below``, ``n + 1`` long."""
+    """``given[prefix + 'layer_offsets']`` copied, then checked: ``n + 1`` long."""
     name = prefix + "layer_offsets"
-    lo = as_offsets(given[name], below.shape[0] - 1, name)
+    lo = private_int_array(given[name], name, ndim=1)
+    check_offsets(lo, below.shape[0] - 1, name)
     if lo.shape[0] != n + 1:
         raise LayoutError(
             f"`{name}` must have length {n + 1} (layers + 1, as `slice_z`); "
@@ -198,12 +199,14 @@ class SlicedModel(PartsLayout):
         open_chains: ArrayLike | None = None,
         stitched_gaps: ArrayLike | None = None,
     ) -> None:
-        z = as_int_array(slice_z, "slice_z", ndim=1)
+        # each array is coerced, copied (ragged.private_int_array) and then
+        # checked: the checks see what is stored, not the caller's memory
+        z = private_int_array(slice_z, "slice_z", ndim=1)
         n = z.shape[0]
-        zeros = np.zeros(n, dtype=np.int64)
+        zeros = freeze(np.zeros(n, dtype=np.int64))  # defaults: ours, not copied
         if open_coords is None and open_ring_offsets is None:
-            open_coords, open_ring_offsets = np.empty((0, 2), np.int64), [0]
-            open_layer_offsets = np.zeros(n + 1, dtype=np.int64)
+            open_coords, open_ring_offsets = freeze(np.empty((0, 2), np.int64)), [0]
+            open_layer_offsets = freeze(np.zeros(n + 1, dtype=np.int64))
         given = {
             "slice_z": slice_z, "print_z": print_z, "thickness": thickness,
             "layer_offsets": layer_offsets, "part_offsets": part_offsets,
@@ -215,7 +218,7 @@ class SlicedModel(PartsLayout):
         }
         v = {"slice_z": z}
         for name in _PER_LAYER[1:]:
-            v[name] = as_int_array(given[name], name, ndim=1)
+            v[name] = private_int_array(given[name], name, ndim=1)
             if v[name].shape[0] != n:
                 raise LayoutError(
                     f"`{name}` must have length {n} (one per layer, as `slice_z`); "
@@ -234,7 +237,7 @@ class SlicedModel(PartsLayout):
             "open_coords")
         v["open_layer_offsets"] = _layer_offsets(given, "open_",
                                                  v["open_ring_offsets"], n)
-        self._set_fields({name: adopt(v[name], given[name]) for name in _FIELDS})
+        self._set_fields({name: v[name] for name in _FIELDS})
 
     @classmethod
     def from_parts(

@@ -210,3 +210,31 @@ def test_small_chunks_on_threads_give_the_same_slices(meshes_dir, monkeypatch, n
     assert want[2].shape[0] > 10_000  # the raw loops' points
     if name == "teapot.stl":
         assert want[9][:, 2].sum() > 100  # open chains before stitching
+
+
+def test_heights_are_checked_on_the_copy_the_kernels_read(write_when_copied):
+    """Audit s26 state D2: the sorted order of slice_z was checked in the caller's
+    memory, which the kernels then read (a write in between reached them
+    unchecked). Here the write lands just before the copy."""
+    z = np.array([100, 500], np.int64)
+    writes = write_when_copied(z, 0, 900)
+    with pytest.raises(vs.InputValueError, match=r"`slice_z` must be sorted "
+                       r"\(non-decreasing\); got 900 > 500 at index 0"):
+        cura_raw(_prism(), z)
+    assert writes == [0]
+
+
+def test_cura_layers_copies_stay_read_only():
+    """Audit s26 state D3 (as ContourErrors): CuraLayers froze its arrays in
+    __post_init__, which unpickling and deepcopy skip."""
+    import copy
+    import pickle
+
+    raw = cura_raw(_prism(), [500])
+    for clone in (pickle.loads(pickle.dumps(raw)), copy.deepcopy(raw), copy.copy(raw)):
+        for name in ("explicit", "stats"):
+            a = getattr(clone, name)
+            assert np.array_equal(a, getattr(raw, name)) and not a.flags.writeable
+            with pytest.raises(ValueError):
+                a.flags.writeable = True
+        assert clone.polygons.coords.tolist() == raw.polygons.coords.tolist()

@@ -304,3 +304,19 @@ def test_triangle_limit_applies_as_for_the_default_reader(tmp_path, monkeypatch,
                            r"vecslice reads at most 2 triangles \(vecslice\.meshfile"
                            r"\.MAX_TRIANGLES\)"):
             vs.load_mesh(path, compat=compat)
+
+
+@pytest.mark.parametrize("compat", ["vecslice", "cura"])
+def test_trimesh_faces_are_checked_on_the_copy_that_is_used(write_when_copied,
+                                                            compat):
+    """Audit s26 state D2: a trimesh's faces were checked in its own memory and
+    used from there (compat='vecslice': by the merge kernels); a write by another
+    thread in between went unchecked. Here the write lands just before the copy."""
+    v = [[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]]
+    tm = trimesh.Trimesh(v, [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
+                         process=False)
+    writes = write_when_copied(tm.faces, (3, 1), 10**12)
+    with pytest.raises(vs.InputValueError, match=r"`faces` must index vertices in "
+                       r"\[0, 4\); got 1000000000000 at face 3"):
+        vs.load_mesh(tm, compat=compat)
+    assert writes == [(3, 1)]

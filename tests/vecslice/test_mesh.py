@@ -668,3 +668,75 @@ def test_load_info_of_another_type_is_refused(make):
                        match=r"`load_info` must be a vecslice.mesh.LoadInfo or None; "
                              r"got int 5"):
         make([[0, 0, 0], [9, 0, 0], [0, 9, 0]], [[0, 1, 2]], load_info=5)
+
+
+def _tetra_arrays():
+    v = np.array([[0, 0, 0], [1000, 0, 0], [0, 1000, 0], [0, 0, 1000]], np.int64)
+    f = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]], np.int64)
+    return v, f
+
+
+@pytest.mark.parametrize("make", [
+    vs.Mesh, vs.Mesh.from_arrays,
+    lambda v, f: vs.Mesh.from_arrays(v, f, merge=False),
+], ids=["Mesh", "from_arrays", "from_arrays-merge=False"])
+@pytest.mark.parametrize(("which", "index", "value", "match"), [
+    ("faces", (1, 0), 10**12,
+     r"`faces` must index vertices in \[0, 4\); got 1000000000000 at face 1"),
+    ("vertices", (2, 1), 2**40,
+     r"`vertices` must satisfy \|value\| < 2\*\*30 µm .*got 1099511627776 at row 2"),
+])
+def test_mesh_checks_the_copy_it_keeps(write_when_copied, make, which, index, value,
+                                       match):
+    """Audit s26 state D2: Mesh() checked the caller's arrays, then copied them; a
+    write by another thread in between gave a 'valid' mesh with face index 10**12
+    for 4 vertices (slice_contours: SIGSEGV). from_arrays merged the caller's
+    arrays in place of a copy: its kernels read indices the caller could change.
+    Here the write lands just before the copy: the copy is what is checked."""
+    v, f = _tetra_arrays()
+    writes = write_when_copied({"faces": f, "vertices": v}[which], index, value)
+    with pytest.raises(vs.InputValueError, match=match):
+        make(v, f)
+    assert writes == [index]
+
+
+def test_from_arrays_merges_the_arrays_it_checked(monkeypatch):
+    """D2: the merge kernels read the private copy, not the caller's arrays (a
+    write after the checks, still in range here, changes nothing)."""
+    import vecslice.mesh as mesh_module
+
+    v, f = _tetra_arrays()
+    expected = vs.Mesh.from_arrays(v.copy(), f.copy())
+    real = mesh_module.clean_arrays
+
+    def racing(*args, **kwargs):
+        f[0] = [0, 1, 2]  # another thread, after the checks
+        v[3, 2] = 5
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(mesh_module, "clean_arrays", racing)
+    mesh = vs.Mesh.from_arrays(v, f)
+    assert mesh.faces.tolist() == expected.faces.tolist()
+    assert mesh.vertices.tolist() == expected.vertices.tolist()
+
+
+def test_load_mesh_hands_its_own_arrays_over_without_a_copy(meshes_dir, monkeypatch):
+    """D2 fix: from_arrays copies what its caller could write; load_mesh's arrays
+    (the reader's, to_microns') are its own and are not copied again."""
+    import vecslice.ragged as ragged
+
+    copied = []
+    real = ragged.adopt
+
+    def counting(new, given):
+        out = real(new, given)
+        if not np.shares_memory(out, new):
+            copied.append(new.shape)
+        return out
+
+    monkeypatch.setattr(ragged, "adopt", counting)
+    mesh = vs.load_mesh(meshes_dir / "Voron_Design_Cube_v7.stl", repair=False)
+    assert mesh.n_faces > 0 and copied == []
+    tm = trimesh.creation.box((10, 10, 10))
+    vs.load_mesh(tm, repair=False)
+    assert copied == [tm.faces.shape]  # a trimesh's faces are its own: copied

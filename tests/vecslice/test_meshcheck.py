@@ -1,9 +1,15 @@
-"""meshcheck.face_volumes against exact integer determinants."""
+"""meshcheck: face_volumes against exact integer determinants; MeshReport."""
+
+import copy
+import pickle
 
 import numpy as np
+import pytest
+import trimesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import vecslice as vs
 from vecslice.meshcheck import face_volumes
 
 
@@ -34,3 +40,20 @@ def test_tetrahedron_faces_and_the_closed_sum():
     assert face_volumes(v, f).sum() == 36.0
     assert face_volumes(v, f[:, ::-1]).sum() == -36.0
     assert face_volumes(v, f[:0]).shape == (0,)
+
+
+def test_mesh_report_copies_keep_bounds_read_only():
+    """Audit s26 state D3: MeshReport.bounds was frozen only when the report was
+    built; pickled and deep-copied reports had writeable bounds."""
+    report = vs.load_mesh(trimesh.creation.box((10, 20, 30))).report()
+    given = np.array([[0, 0, 0], [1, 1, 1]])
+    direct = vs.MeshReport(1, 1, 3, 1, 3, 0, 0, 0, 0, 0.0, given)
+    given[1, 1] = 7  # the caller's array: the report keeps its own copy
+    assert direct.bounds.tolist() == [[0, 0, 0], [1, 1, 1]]
+    for r in (report, direct):
+        for clone in (pickle.loads(pickle.dumps(r)), copy.deepcopy(r), copy.copy(r)):
+            assert clone.bounds.tolist() == r.bounds.tolist()
+            assert clone.n_faces == r.n_faces and clone.load_info == r.load_info
+            assert not clone.bounds.flags.writeable
+            with pytest.raises(ValueError):
+                clone.bounds.flags.writeable = True

@@ -403,3 +403,27 @@ def test_a_speed_beyond_float_range_is_a_settings_error(cylinder, value):
     with pytest.raises(vs.SettingsError, match=r"`controller_ms` must be finite and "
                                                r">= 0 \(ms\); got about -?10\*\*400$"):
         vs.metrics.move_stats(model, controller_ms=value)
+
+
+def test_contour_errors_copies_stay_read_only():
+    """Audit s26 state D3: a pickled or deep-copied ContourErrors had writeable
+    arrays (unpickling skipped __post_init__'s freezing); a write then changed
+    max_deviation_um."""
+    import copy
+    import pickle
+
+    raw = vs.LayerPaths([[0, 0], [800, 0], [807, 400], [800, 800], [0, 800]],
+                     [0, 5], [0, 1])
+    err, _ = simplification_errors(raw)
+    names = ("raw_to_simplified_um", "simplified_to_raw_um", "xor_area_um2",
+             "linear", "ring_layer", "raw_area_um2")
+    for clone in (pickle.loads(pickle.dumps(err)), copy.deepcopy(err),
+                  copy.copy(err)):
+        assert type(clone) is type(err)
+        for name in names:
+            a = getattr(clone, name)
+            assert np.array_equal(a, getattr(err, name))
+            assert not a.flags.writeable
+            with pytest.raises(ValueError):
+                a.flags.writeable = True
+        assert clone.max_deviation_um == err.max_deviation_um == 7.0

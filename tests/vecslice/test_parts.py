@@ -566,3 +566,24 @@ def test_hole_outline_pairs_are_listed_a_chunk_at_a_time():
     assert parts.n_parts == n * layers
     assert all(len(holes) == 1 for _, holes in parts.layer(layers - 1))
     assert peak < 60 * 2**20, peak / 2**20
+
+
+@pytest.mark.parametrize(("which", "index", "value", "fragment"), [
+    (0, (5, 0), -100, r"ring 1 \(a hole of part 0, layer 0\) must be clockwise"),
+    (1, 1, 2, r"ring 0 \(the outline of part 0, layer 0\) has 2"),
+    (2, 1, 10**12, r"`part_offsets` must end at 2"),
+    (3, 1, -5, r"`layer_offsets` must end at 1"),
+])  # fmt: skip
+def test_layer_parts_checks_the_copies_it_keeps(write_when_copied, which, index,
+                                                value, fragment):
+    """Audit s26 state D2: LayerParts checked the caller's arrays, then copied them;
+    a write by another thread in between was kept unchecked. Here the write lands
+    just before the copy."""
+    hole = [[2, 8], [8, 8], [8, 2], [2, 2]]
+    arrays = [np.array([[0, 0], [10, 0], [10, 10], [0, 10], *hole]),
+              np.array([0, 4, 8]), np.array([0, 2]), np.array([0, 1])]
+    LayerParts(*arrays)  # valid as given
+    writes = write_when_copied(arrays[which], index, value)
+    with pytest.raises(ValueError, match=fragment):
+        LayerParts(*arrays)
+    assert writes == [index]

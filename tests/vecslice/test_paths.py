@@ -174,3 +174,51 @@ def test_area2_of_a_ring_wound_twice_near_the_limit_is_refused():
     with pytest.raises(vs.InputValueError, match=r"ring 1 \(layer 1\) must fit"):
         lp.layer_area2()
     assert vs.Paths(np.array(square), [0, 4]).area2().tolist() == [2 * (2 * x) ** 2]
+
+
+def _ragged_arrays():
+    c = np.array(TRI + SQ, np.int64)
+    return c, np.array([0, 3, 7], np.int64), np.array([0, 1, 1, 2], np.int64)
+
+
+@pytest.mark.parametrize(("make", "which", "index", "value", "fragment"), [
+    (lambda c, r, lo: Paths(c, r), "c", (4, 0), 2**30,
+     r"`coords` must satisfy \|value\| < 2\*\*30 µm .*got 1073741824 at row 4"),
+    (lambda c, r, lo: Paths(c, r), "r", 1, 10**12,
+     r"`ring_offsets` decreases at index 1: 1000000000000 > 7"),
+    (lambda c, r, lo: LayerPaths(c, r, lo), "c", (0, 1), -(2**30),
+     r"`coords` must satisfy \|value\| < 2\*\*30 µm .*got -1073741824 at row 0"),
+    (lambda c, r, lo: LayerPaths(c, r, lo), "r", 1, 10**12,
+     r"`ring_offsets` decreases at index 1"),
+    (lambda c, r, lo: LayerPaths(c, r, lo), "lo", 2, -1,
+     r"`layer_offsets` decreases at index 1: 1 > -1"),
+])  # fmt: skip
+def test_containers_check_the_copies_they_keep(write_when_copied, make, which, index,
+                                               value, fragment):
+    """Audit s26 state D2: Paths and LayerPaths checked the caller's arrays, then
+    copied them; a write by another thread in between was kept unchecked (ring
+    kernels then read out of bounds). The write lands just before the copy here."""
+    c, r, lo = _ragged_arrays()
+    writes = write_when_copied({"c": c, "r": r, "lo": lo}[which], index, value)
+    with pytest.raises(InputValueError, match=fragment):
+        make(c, r, lo)
+    assert writes == [index]
+
+
+def test_from_rings_checks_the_copy_it_keeps(monkeypatch):
+    """D2: from_rings checked each ring, then concatenated the rings (the copy):
+    a write in between was kept. The write lands after the rings were taken."""
+    import vecslice.paths as paths_module
+
+    ring = np.array(SQ, np.int64)
+    real = paths_module.offsets_from_lengths
+
+    def racing(lens):
+        ring[2, 1] = 2**30  # another thread, once every ring was taken
+        return real(lens)
+
+    monkeypatch.setattr(paths_module, "offsets_from_lengths", racing)
+    with pytest.raises(InputValueError,
+                       match=r"`rings\[1\]` must satisfy \|value\| < 2\*\*30 µm "
+                             r".*got 1073741824 at row 2"):
+        Paths.from_rings([TRI, ring])

@@ -278,3 +278,23 @@ def test_a_layer_container_gets_a_hint_not_a_dtype_message():
                              r"vs.clean_loops"):
         vs.simplify(loops)
     assert vs.simplify(loops.paths()).n_rings == loops.n_rings
+
+
+def test_simplify_checks_the_copy_it_simplifies(write_when_copied):
+    """Audit s26 state D2: an array passed to simplify was range-checked in the
+    caller's memory, which the kernel then read: a write by another thread in
+    between reached the kernel unchecked. The write lands just before the copy."""
+    coords = np.array([[0, 0], [500, 3], [1000, 0], [1000, 1000]], np.int64)
+    writes = write_when_copied(coords, (1, 0), 2**30)
+    with pytest.raises(vs.InputValueError,
+                       match=r"`paths` must satisfy \|value\| < 2\*\*30 .* at row 1"):
+        simplify(coords)
+    assert writes == [(1, 0)]
+    widths = np.array([400, 600, 600, 400], np.int64)
+    writes = write_when_copied(widths, 2, -1)
+    with pytest.raises(vs.InputValueError,
+                       match=r"`widths` must satisfy 0 <= width < 2\*\*30 µm; got -1 "
+                             r"at index 2"):
+        simplify(vs.Paths([[0, 0], [500, 3], [1000, 0]], [0, 3]), closed=False,
+                 widths=widths[:3])
+    assert writes == [(1, 0), 2]

@@ -270,3 +270,29 @@ def test_too_many_faces_for_int32_twins_is_a_clear_error(monkeypatch):
         vs.slice_contours(box, [0])
     monkeypatch.setattr(topology, "TWIN_LIMIT", 37)
     assert vs.slice_contours(box, [0]).layer_area2().tolist() == [200_000_000]
+
+
+def test_slice_contours_checks_the_heights_it_cuts(write_when_copied, monkeypatch):
+    """Audit s26 state D2: slice_z was checked (range, then sorted or not) in the
+    caller's memory, which the kernels then read: a write by another thread in
+    between reached them unchecked (they rely on the sorted order). Here the
+    write lands just before the copy, or after the checks."""
+    import vecslice.slicing as slicing_module
+
+    box = vs.load_mesh(trimesh.creation.box((10, 10, 10)))
+    z = np.array([-1000, 1000], np.int64)
+    writes = write_when_copied(z, 1, 2**30)
+    with pytest.raises(vs.InputValueError,
+                       match=r"`slice_z` must satisfy \|value\| < 2\*\*30"):
+        vs.slice_contours(box, z)
+    assert writes == [1]
+    z[1] = 1000
+    want = vs.slice_contours(box, z.copy()).layer_area2().tolist()
+    real = slicing_module.check_layer_count
+
+    def racing(*args, **kwargs):
+        z[:] = [1000, -6000]  # another thread, after the checks: a height below
+        return real(*args, **kwargs)  # the box, and the order reversed
+
+    monkeypatch.setattr(slicing_module, "check_layer_count", racing)
+    assert vs.slice_contours(box, z).layer_area2().tolist() == want

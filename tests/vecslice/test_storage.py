@@ -503,3 +503,44 @@ def test_outline_wound_twice_near_the_limit_is_refused(tmp_path, cw):
     with pytest.raises(StorageFileError,
                        match="holds an invalid vecslice model: " + fragment):
         load_sliced(path)
+
+
+def _model_arrays():
+    return {
+        "slice_z": np.array([1], np.int64), "print_z": np.array([2], np.int64),
+        "thickness": np.array([2], np.int64), "layer_offsets": np.array([0, 1]),
+        "part_offsets": np.array([0, 2]), "ring_offsets": np.array([0, 4, 8]),
+        "coords": np.array(SQ + HOLE, np.int64),
+        "open_coords": np.array([[0, 0], [5, 5]]),
+        "open_ring_offsets": np.array([0, 2]),
+        "open_layer_offsets": np.array([0, 1]), "open_chains": np.array([1]),
+        "stitched_gaps": np.array([0]),
+    }
+
+
+@pytest.mark.parametrize(("name", "index", "value", "fragment"), [
+    ("slice_z", 0, 2**30, r"`slice_z` must satisfy \|value\| < 2\*\*30"),
+    ("print_z", 0, -(2**30), r"`print_z` must satisfy .* got -1073741824 at layer 0"),
+    ("thickness", 0, 0, r"`thickness` must be > 0 .* got 0 at layer 0"),
+    ("open_chains", 0, -1, r"`open_chains` must be a count .* got -1 at layer 0"),
+    ("stitched_gaps", 0, 2**31, r"`stitched_gaps` must be a count .* got 2147483648"),
+    ("coords", (5, 0), 2**30, r"`coords` must satisfy \|value\| < 2\*\*30"),
+    ("coords", (5, 0), -100, r"ring 1 \(a hole of part 0, layer 0\) must be clockwise"),
+    ("ring_offsets", 1, 2, r"ring 0 \(the outline of part 0, layer 0\) has 2"),
+    ("part_offsets", 1, 10**12, r"`part_offsets` must end at 2 .* got 1000000000000"),
+    ("layer_offsets", 1, 0, r"`layer_offsets` must end at 1 .* got 0 at index 1"),
+    ("open_coords", (1, 1), 2**30, r"`open_coords` must satisfy \|value\|"),
+    ("open_ring_offsets", 1, 10**12, r"`open_ring_offsets` must end at 2"),
+    ("open_layer_offsets", 1, 10**12, r"`open_layer_offsets` must end at 1"),
+])  # fmt: skip
+def test_sliced_model_checks_the_copies_it_keeps(write_when_copied, name, index,
+                                                 value, fragment):
+    """Audit s26 state D2: SlicedModel checked the caller's arrays, then copied
+    them; a write by another thread in between was kept unchecked (offsets out of
+    range: kernels read out of bounds). Here the write lands just before the copy."""
+    given = _model_arrays()
+    SlicedModel(**given)  # valid as given
+    writes = write_when_copied(given[name], index, value)
+    with pytest.raises(ValueError, match=fragment):
+        SlicedModel(**given)
+    assert writes == [index]
