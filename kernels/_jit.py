@@ -15,7 +15,11 @@ import time
 import numpy as np
 from numba import njit
 
+from . import _cachestamp
+
 __all__ = ["compile_listeners", "cost_chunks", "even_chunks", "kernel", "run_serial"]
+
+_cachestamp.check()  # before any kernel is loaded from numba's cache
 
 _lock = threading.RLock()
 
