@@ -66,6 +66,7 @@ from .planar import (
     _near_edge_distance,
     _to_ring_within,
     directed_distance,
+    settle_bounds,
     winding_area,
 )
 
@@ -573,17 +574,7 @@ def _simp_to_raw(rc, r0, n, sc, s0, m, wi, npc, ub):
     best = _to_ring_within(sc[s0 + top, 0], sc[s0 + top, 1], rc, r0, n, ub[top])
     if best == ub[top]:
         return best
-    keys = np.empty(m, np.float64)
-    for j in range(m):
-        keys[j] = -ub[j]
-    order = np.argsort(keys)
-    for i in range(m):
-        j = order[i]
-        if ub[j] <= best:
-            break
-        best = max(best, _to_ring_within(sc[s0 + j, 0], sc[s0 + j, 1], rc, r0, n,
-                                         ub[j]))
-    return best
+    return settle_bounds(sc, s0, m, rc, r0, n, ub, best)
 
 
 @kernel(types.Tuple((F64, F64, F64, B1))(I64_2D, I64, I64, I64_2D, I64, I64, _W1,

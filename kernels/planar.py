@@ -198,13 +198,25 @@ def directed_distance(ac, a0, na, bc, b0, nb, ub):
     best = _to_ring_within(ac[a0 + top, 0], ac[a0 + top, 1], bc, b0, nb, bound)
     if best == bound:  # every other bound is <= it
         return best
-    order = np.argsort(-ub[:na])
-    for t in range(na):
-        i = order[t]
-        if ub[i] <= best:
+    return settle_bounds(ac, a0, na, bc, b0, nb, ub, best)
+
+
+@kernel(inline="always")
+def settle_bounds(pc, p0, npts, rc, r0, n, ub, best):
+    """The largest distance from points ``pc[p0:p0 + npts]`` to ring ``rc[r0:r0 + n]``.
+
+    Given each point's bound ``ub[j]`` (some edge's distance, so at least the
+    point's own) and ``best``, an exact distance already found: the points whose
+    bound exceeds the best so far are measured against all edges, largest bound
+    first, until none does.
+    """
+    order = np.argsort(-ub[:npts])
+    for t in range(npts):
+        j = order[t]
+        if ub[j] <= best:
             break
-        best = max(best, _to_ring_within(ac[a0 + i, 0], ac[a0 + i, 1], bc, b0, nb,
-                                         ub[i]))
+        best = max(best, _to_ring_within(pc[p0 + j, 0], pc[p0 + j, 1], rc, r0, n,
+                                         ub[j]))
     return best
 
 
