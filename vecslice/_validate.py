@@ -124,6 +124,33 @@ def check_offsets(a: NDArray[np.int64], n_below: int, name: str) -> None:
         raise LayoutError(f"`{name}` decreases at index {i}: {a[i]} > {a[i + 1]}")
 
 
+def check_schedule_limits(z: NDArray[np.int64], print_z: NDArray[np.int64],
+                          lo: int, hi: int, *, adaptive: bool) -> None:
+    """Raise unless a layer schedule stays within ``COORD_LIMIT`` (2**30 µm).
+
+    ``z`` are the slice heights in the mesh's frame, ``print_z`` the heights
+    above the bed, and ``lo``/``hi`` the mesh's z range (for the message).
+    """
+    if z.size and int(z.max()) >= COORD_LIMIT:
+        k = int(np.argmax(z >= COORD_LIMIT))
+        raise InputValueError(
+            f"the layer schedule must stay below z = 2**30 µm (the coordinate "
+            f"limit); got layer {k} at z = {int(z[k])} µm, above a mesh whose top is "
+            f"at {hi} µm"
+            + (" (the last adaptive layer ends above the model)" if adaptive else "")
+            + ": move the mesh down"
+        )
+    if print_z.size and int(print_z.max()) >= COORD_LIMIT:
+        # heights above the bed: a model more than 2**30 µm tall (SlicedModel
+        # would refuse them only once everything was sliced)
+        k = int(np.argmax(print_z >= COORD_LIMIT))
+        raise InputValueError(
+            f"the layers must print below 2**30 µm (about 1 km) above the bed; got "
+            f"layer {k} at {int(print_z[k])} µm, for a mesh {hi - lo} µm tall "
+            f"(from z = {lo} to {hi} µm)"
+        )
+
+
 def check_int(
     value: object,
     name: str,

@@ -20,7 +20,12 @@ from vecslice._kernels.adaptive import (
     sort_faces,
 )
 from vecslice._threads import run_chunks
-from vecslice._validate import check_int, check_layer_count, check_option
+from vecslice._validate import (
+    check_int,
+    check_layer_count,
+    check_option,
+    check_schedule_limits,
+)
 from vecslice.errors import InputTypeError, SettingsError
 from vecslice.interrupt import keyboard_interrupts
 from vecslice.mesh import Mesh
@@ -241,6 +246,10 @@ def adaptive_layer_heights(
     SettingsError
         If ``frame`` is unknown, or the schedule has more than
         ``settings.max_layers`` layers (the loop stops there).
+    InputValueError
+        If a layer would end at or beyond the 2**30 µm coordinate limit (the
+        last layer ends above the model, so a mesh just below the limit cannot
+        be sliced adaptively: move it down).
 
     Notes
     -----
@@ -303,4 +312,6 @@ def adaptive_layer_heights(
             f"{height} µm tall they can be up to {most}",
             "SliceSettings(max_layers={n})", needed=most,
         )
-    return top + dz, top, thickness
+    z = top + dz
+    check_schedule_limits(z, top, *m._corner_zrange(), adaptive=True)
+    return z, top, thickness

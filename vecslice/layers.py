@@ -7,13 +7,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vecslice._validate import check_int, check_layer_count
+from vecslice._validate import check_int, check_layer_count, check_schedule_limits
 from vecslice.adaptive import adaptive_layer_heights
-from vecslice.errors import InputTypeError, InputValueError
+from vecslice.errors import InputTypeError
 from vecslice.interrupt import keyboard_interrupts
 from vecslice.mesh import Mesh
 from vecslice.settings import SliceSettings
-from vecslice.units import COORD_LIMIT
 
 __all__ = ["layer_count", "layer_heights", "layer_schedule"]
 
@@ -187,23 +186,6 @@ def layer_heights(
         zmin, zmax = mesh._corner_zrange()
         z, print_z, thickness = layer_schedule(zmax - zmin, settings)
         z = z + zmin
-    if z.size and int(z.max()) >= COORD_LIMIT:
-        k = int(np.argmax(z >= COORD_LIMIT))
-        raise InputValueError(
-            f"the layer schedule must stay below z = 2**30 µm (the coordinate "
-            f"limit); got layer {k} at z = {int(z[k])} µm, above a mesh whose top is "
-            f"at {mesh._corner_zrange()[1]} µm"
-            + (" (the last adaptive layer ends above the model)"
-               if settings.adaptive_layers else "") + ": move the mesh down"
-        )
-    if print_z.size and int(print_z.max()) >= COORD_LIMIT:
-        # heights above the bed: a model more than 2**30 µm tall (SlicedModel
-        # would refuse them only once everything was sliced)
-        lo, hi = mesh._corner_zrange()
-        k = int(np.argmax(print_z >= COORD_LIMIT))
-        raise InputValueError(
-            f"the layers must print below 2**30 µm (about 1 km) above the bed; got "
-            f"layer {k} at {int(print_z[k])} µm, for a mesh {hi - lo} µm tall "
-            f"(from z = {lo} to {hi} µm)"
-        )
+    check_schedule_limits(z, print_z, *mesh._corner_zrange(),
+                          adaptive=settings.adaptive_layers)
     return z, print_z, thickness

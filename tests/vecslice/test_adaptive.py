@@ -389,3 +389,28 @@ def test_faces_in_small_chunks_on_threads_give_the_same_bits(monkeypatch, frame)
     fresh = vs.Mesh.from_arrays(mesh.vertices, mesh.faces)
     got = adaptive_layer_heights(fresh, frame=frame)
     assert all(g.tolist() == w.tolist() for g, w in zip(got, want, strict=True))
+
+
+@pytest.mark.parametrize("frame", ["mesh", "bed"])
+def test_schedule_beyond_the_coordinate_limit_is_refused(frame):
+    # the last adaptive layer ends above the model: for a mesh whose top is just
+    # below 2**30 µm it would be cut beyond the limit; layer_heights refused
+    # this, adaptive_layer_heights (the public function) returned it
+    top = 2**30 - 10
+    m = vs.Mesh(np.array([[0, 0, top - 990], [1000, 0, top - 990], [0, 1000, top]]),
+                np.array([[0, 1, 2]]))
+    # 0.1 m layers: in the 'bed' frame the gap below the mesh is ~10^4 layers
+    s = vs.SliceSettings(adaptive_layers=True, layer_height=100_000,
+                         initial_layer_height=100_000, adaptive_variation=0)
+    with pytest.raises(vs.InputValueError, match=r"2\*\*30") as err:
+        adaptive_layer_heights(m, s, frame=frame)
+    assert isinstance(err.value, ValueError)
+    if frame == "mesh":
+        assert "move the mesh down" in str(err.value)
+        assert f"top is at {top} µm" in str(err.value)
+        with pytest.raises(vs.InputValueError, match="move the mesh down"):
+            vs.layer_heights(m, s)
+    # the same mesh 0.2 m lower is fine
+    low = vs.Mesh(m.vertices - np.array([0, 0, 200_000]), m.faces)
+    z, p, t = adaptive_layer_heights(low, s, frame=frame)
+    assert int(z.max()) < 2**30 and int(p.max()) < 2**30
