@@ -192,15 +192,19 @@ def _sorted_faces(m: Mesh, dz: int) -> tuple[NDArray[Any], ...]:
     """The faces' z ranges and slopes in zmin order, built once per mesh and frame.
 
     They depend only on the (immutable) mesh and the frame shift ``dz``, so every
-    later schedule of the mesh (other thresholds, a sweep) reuses them; threads
-    racing on the first call may each build them (equal results).
+    later schedule of the mesh (other thresholds, a sweep, either frame) reuses
+    them. The cache holds one entry per frame (there are two shifts at most: the
+    mesh's lowest point and 0); threads racing on the first call may each build
+    them (equal results).
     """
-    cached = m._adaptive
-    if cached is not None and cached[0] == dz:
-        return cached[1:]
+    cached = m._adaptive or ()
+    for entry in cached:
+        if entry[0] == dz:
+            return entry[1:]
     face_z, slope = _face_slopes(m.vertices, m.faces, dz)
     arrays = tuple(freeze(a) for a in sort_faces(face_z, slope))
-    object.__setattr__(m, "_adaptive", (dz, *arrays))
+    # the newest entry first; the other frame's entry, if any, is kept
+    object.__setattr__(m, "_adaptive", ((dz, *arrays), *cached[:1]))
     return arrays
 
 

@@ -145,8 +145,8 @@ class Mesh:
     _zcorners: tuple[int, int] | None = field(
         default=None, init=False, repr=False, compare=False
     )
-    # the faces in zmin order for adaptive layers, with the frame shift they were
-    # made for; see vecslice.adaptive
+    # the faces in zmin order for adaptive layers: one (frame shift, arrays...)
+    # entry per frame, newest first; see vecslice.adaptive._sorted_faces
     _adaptive: tuple[Any, ...] | None = field(
         default=None, init=False, repr=False, compare=False
     )

@@ -355,11 +355,13 @@ def test_faces_are_prepared_once_per_mesh_and_frame(monkeypatch):
     box = trimesh.creation.box((20, 20, 10))
     box.apply_translation((0, 0, 8))  # floating: the frames differ
     mesh = vs.load_mesh(box)
-    runs = [(threshold, frame) for frame in ("mesh", "mesh", "bed")
+    runs = [(threshold, frame) for frame in ("mesh", "mesh", "bed", "mesh", "bed")
             for threshold in (50, 200, 400)]
     got = [adaptive_layer_heights(mesh, vs.SliceSettings(adaptive_threshold=t),
                                   frame=f) for t, f in runs]
-    assert len(calls) == 2 and calls[0] != calls[1]  # one per frame in a row
+    # one per frame, also when the frames alternate (the cache kept one frame
+    # at a time and rebuilt on every switch)
+    assert len(calls) == 2 and calls[0] != calls[1]
     # every schedule equals that of a fresh mesh (nothing cached)
     for (t, f), schedule in zip(runs, got, strict=True):
         fresh = vs.Mesh.from_arrays(mesh.vertices, mesh.faces)
