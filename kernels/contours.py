@@ -58,23 +58,44 @@ def _point_up(vertices, a, b, zk):
     """Crossing of the edge from a (below or on zk) to b (above zk) with plane zk.
 
     ``a + round((b - a) * t / dz)`` per coordinate: the offset from a rounded to
-    nearest (ties away from zero) by an exact integer division, as
-    ``crossings.crossing_points``.
+    nearest (ties away from zero), as ``crossings.crossing_points``; both
+    quotients from one reciprocal (:func:`round_div_by`).
     """
     za = vertices[a, 2]
     dz = vertices[b, 2] - za
     xa = vertices[a, 0]
     ya = vertices[a, 1]
     t = zk - za
-    nx = (vertices[b, 0] - xa) * t
-    ny = (vertices[b, 1] - ya) * t
-    qx = nx // dz
-    qy = ny // dz
-    rx = 2 * (nx - qx * dz)
-    ry = 2 * (ny - qy * dz)
-    qx += np.int64((rx > dz) | ((rx == dz) & (nx >= 0)))
-    qy += np.int64((ry > dz) | ((ry == dz) & (ny >= 0)))
-    return xa + qx, ya + qy
+    inv = 1.0 / np.float64(dz)
+    return (xa + round_div_by(vertices[b, 0] - xa, t, dz, inv),
+            ya + round_div_by(vertices[b, 1] - ya, t, dz, inv))
+
+
+@kernel(inline="always")
+def round_div_by(d, t, dz, inv):
+    """``d * t / dz`` rounded to nearest, ties away from zero, exactly.
+
+    For |d| < 2**31, 0 <= t < dz < 2**31 and ``inv = 1.0 / dz`` (a double),
+    without a 64-bit integer division. The double quotient ``(d * t) * inv`` is
+    within three roundings (2**-51 relative) of the exact one, which is below
+    2**31 in magnitude, so it is off by less than 2**-20, and its floor ``q`` is
+    the exact floor ``f``, or one off where the exact quotient lies within 2**-20
+    of an integer. The exact remainder ``r = d * t - q * dz`` then decides:
+
+    * ``q == f``: ``0 <= r < dz``, the usual test (``2r > dz``, or a tie and
+      ``d * t >= 0``);
+    * ``q == f - 1``: the quotient is just above ``f``, which is the answer, and
+      ``r >= dz`` so ``2r > dz`` adds the one;
+    * ``q == f + 1``: the quotient is just below ``f + 1``, the answer, and
+      ``r < 0`` so nothing is added.
+
+    (tests/kernels/test_contours.py builds quotients 1/dz from an integer, where
+    the double's floor is one off both ways.)
+    """
+    n = d * t
+    q = np.int64(np.floor(np.float64(n) * inv))
+    r2 = 2 * (n - q * dz)
+    return q + np.int64((r2 > dz) | ((r2 == dz) & (n >= 0)))
 
 
 _U8_W = types.uint8[::1]

@@ -1,11 +1,14 @@
+import math
+
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import reference
 from strategies import closed_meshes, run_reversed
 from vecslice._kernels._jit import run_serial
-from vecslice._kernels.contours import trace_contours, vertex_layers
+from vecslice._kernels.contours import round_div_by, trace_contours, vertex_layers
 from vecslice._kernels.crossings import crossing_points, face_segments, range_offsets
 from vecslice._kernels.loops import link_segments
 from vecslice._kernels.rings import group_rings
@@ -219,3 +222,57 @@ def test_segment_plan_takes_fewer_ranges_where_planes_are_many(monkeypatch):
     assert seen and max(seen) == 3
     assert [np.asarray(a).tolist() for a in one] == [
         np.asarray(b).tolist() for b in capped]
+
+
+def _exact_round_div_by(d, t, dz):
+    return reference.round_div(d * t, dz)
+
+
+@st.composite
+def _quotient_cases(draw):
+    """(d, t, dz) in the crossing's range, often next to a tie or an integer."""
+    dz = draw(st.one_of(st.integers(1, 2**31 - 1), st.integers(2**31 - 64, 2**31 - 1),
+                        st.integers(1, 64)))
+    t = draw(st.one_of(st.integers(0, dz - 1), st.just(dz - 1), st.just(0)))
+    d = draw(st.integers(-(2**31) + 1, 2**31 - 1))
+    if t and draw(st.booleans()):
+        # d * t next to a multiple of dz, or of dz / 2: where a double's quotient
+        # can floor one off, and the ties
+        m = draw(st.integers(-(2**31) + 2, 2**31 - 2))
+        half = draw(st.booleans())
+        target = m * dz + (dz // 2 if half else 0) + draw(st.integers(-2, 2))
+        d = max(-(2**31) + 1, min(2**31 - 1, target // t))
+    return d, t, dz
+
+
+@settings(max_examples=3000, deadline=None)
+@given(_quotient_cases())
+def test_round_div_by_is_the_exact_rounded_quotient(case):
+    d, t, dz = case
+    assert round_div_by(d, t, dz, 1.0 / dz) == _exact_round_div_by(d, t, dz)
+
+
+def test_round_div_by_where_the_double_quotient_floors_one_off():
+    # d * t one above or below a multiple of dz (d = ±t^-1 mod dz): the exact
+    # quotient is 1/dz from an integer, closer than the double's error, so the
+    # double's floor is one off, in both directions; the rounding by the exact
+    # remainder must still give the exact result (see round_div_by)
+    rng = np.random.default_rng(5)
+    low, high = [], []
+    while len(low) < 300 or len(high) < 300:
+        dz = int(rng.integers(2**30, 2**31))
+        t = int(rng.integers(1, dz))
+        if math.gcd(t, dz) != 1:
+            continue
+        inv = pow(t, -1, dz)
+        for d in (inv, dz - inv, -inv, inv - dz):
+            if abs(d) >= 2**31:
+                continue
+            n = d * t
+            floor_of_double = int(np.floor(float(n) * (1.0 / dz)))
+            if floor_of_double < n // dz:
+                low.append((d, t, dz))
+            elif floor_of_double > n // dz:
+                high.append((d, t, dz))
+    for d, t, dz in low[:300] + high[:300]:
+        assert round_div_by(d, t, dz, 1.0 / dz) == _exact_round_div_by(d, t, dz)
