@@ -486,19 +486,20 @@ def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
     tri: dict[Key, int] = {}
     vert: dict[Key, int] = {}
     inst: dict[Key, int] = {}
-    active: list[Key] = []
     for n, (key, _) in enumerate(pkg.items):
         check(key, f"build item {n + 1}")
         if key in tri:
             continue
+        # the objects on the path from the item: in order (the stack) and as a
+        # set, so a cycle check costs one lookup, not a walk along the path
         stack = [(key, iter(children(key)))]
-        active = [key]
+        active = {key}
         while stack:
             node, it = stack[-1]
             child = next(it, None)
             if child is None:
                 stack.pop()
-                active.pop()
+                active.discard(node)
                 o = pkg.objects[node]
                 tri[node] = o.faces.shape[0] + sum(tri[c] for c, _ in children(node))
                 vert[node] = (o.vertices.shape[0] if o.faces.shape[0] else 0) + sum(
@@ -508,12 +509,13 @@ def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
             ck = child[0]
             check(ck, f"a component of object {node[1]}")
             if ck in active:
-                loop = " -> ".join(str(k[1]) for k in active[active.index(ck):])
+                path = [k for k, _ in stack]
+                loop = " -> ".join(str(k[1]) for k in path[path.index(ck):])
                 raise pkg.fail(f"3MF components form a cycle: objects {loop} -> "
                                f"{ck[1]}")
             if ck not in tri:
                 stack.append((ck, iter(children(ck))))
-                active.append(ck)
+                active.add(ck)
     n_tri = sum(tri[k] for k, _ in pkg.items)
     n_vert = sum(vert[k] for k, _ in pkg.items)
     n_inst = sum(inst[k] for k, _ in pkg.items)

@@ -490,3 +490,38 @@ def test_triangle_index_beyond_int64_is_quoted_as_written(tmp_path):
         xml = model(mesh_object(1), [(1, None)]).replace('v3="3"', f'v3="{index}"', 1)
         refused(tmp_path, xml, r"object 1: triangle 1 refers to vertices \[0, 1, "
                 + index + r"\], but the object has 4 vertices")
+
+
+# ---------------------------------------------------------------------------
+# audit s25: limits counted while reading, strict numbers and ids
+# ---------------------------------------------------------------------------
+
+
+class _CountingKey(tuple):
+    """A (part, object id) key that counts its == comparisons."""
+
+    calls = 0
+
+    def __eq__(self, other):
+        _CountingKey.calls += 1
+        return tuple.__eq__(self, other)
+
+    __hash__ = tuple.__hash__
+
+
+def test_component_cycle_check_does_not_scan_the_chain(tmp_path, monkeypatch):
+    # audit s25 D03: `key in active` on a list compared each component with
+    # every object above it: depth**2 / 2 comparisons (500,000 here)
+    import vecslice.threemf as threemf
+
+    depth = 1000
+    res = mesh_object(1) + "".join(
+        components_object(k + 1, [(k, None, "")]) for k in range(1, depth))
+    path = write_3mf(tmp_path / "chain.3mf", model(res, [(depth, None)]))
+    ref = threemf._ref
+    monkeypatch.setattr(threemf, "_ref",
+                        lambda *a, **kw: _CountingKey(ref(*a, **kw)))
+    _CountingKey.calls = 0
+    v, f = threemf.read_3mf(path, 0)
+    assert f.shape == (4, 3)
+    assert _CountingKey.calls < 10 * depth
