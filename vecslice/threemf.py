@@ -122,9 +122,9 @@ class _Package:
     def fail(self, what: str) -> MeshFileError:
         return MeshFileError(f"'{self.path}': {what}")
 
-    def member(self, name: str, *, limit: int) -> zipfile.ZipInfo:
-        """Member ``name`` after checking its declared sizes."""
-        info = self.members[_norm(name)]
+    def member(self, key: str, name: str, *, limit: int) -> zipfile.ZipInfo:
+        """Member ``key`` (called ``name``) after checking its declared sizes."""
+        info = self.members[key]
         if info.flag_bits & 0x1:
             raise self.fail(f"3MF part '{name}' is encrypted")
         if info.file_size > min(limit, self.budget):
@@ -142,8 +142,12 @@ class _Package:
                 "vecslice.threemf.MAX_COMPRESSION_RATIO)")
         return info
 
-    def parse(self, name: str, *, limit: int, target: Any) -> None:
+    def parse(self, name: str, *, limit: int, target: Any,
+              key: str | None = None) -> None:
         """Feed member ``name`` to the lxml parser target ``target`` as it inflates.
+
+        ``key`` is the member's key in :attr:`members` (by default ``name``
+        normalised; a name that is a key already must not be unescaped twice).
 
         No tree is built: memory stays near what the target keeps. No network
         access, no entity resolution, libxml2's size guards; a document type
@@ -151,7 +155,7 @@ class _Package:
         """
         from lxml import etree
 
-        info = self.member(name, limit=limit)
+        info = self.member(_norm(name) if key is None else key, name, limit=limit)
         parser = etree.XMLParser(
             target=target, resolve_entities=False, no_network=True, huge_tree=False,
             load_dtd=False, dtd_validation=False, attribute_defaults=False)
@@ -257,13 +261,41 @@ def _transform(pkg: _Package, text: str | None, where: str) -> NDArray[np.float6
     return t
 
 
+_ID_MAX = 2**31 - 1
+"""Largest 3MF resource id (ST_ResourceID: below 2**31)."""
+
+
+def _shown(text: str, limit: int = 40) -> str:
+    """``repr(text)`` for a message, cut after ``limit`` characters."""
+    if len(text) <= limit:
+        return repr(text)
+    return f"{text[:limit]!r}... ({len(text):,} characters)"
+
+
+def _object_id(text: str) -> int | None:
+    """The object id ``text`` (ASCII digits, at most :data:`_ID_MAX`), or None.
+
+    ``str.isdigit`` and ``int`` also take the digits of other scripts (Arabic-Indic
+    one, U+0661), ``isdigit`` also superscripts, which ``int`` refuses, and
+    ``int`` refuses more than 4300 digits: all raised a bare ValueError.
+    """
+    if not (text.isascii() and text.isdigit()) or len(text.lstrip("0")) > 10:
+        return None
+    n = int(text)
+    return n if n <= _ID_MAX else None
+
+
 def _ref(pkg: _Package, attrib: dict[str, str], part: str, where: str) -> Key:
     """(part, object id) an item or component refers to."""
-    oid = attrib.get("objectid", "")
-    if not oid.isdigit():
-        raise pkg.fail(f"{where} has objectid {oid!r}; expected an object number")
+    oid = attrib.get("objectid")
+    if oid is None:
+        raise pkg.fail(f"{where} has no objectid")
+    n = _object_id(oid)
+    if n is None:
+        raise pkg.fail(f"{where} has objectid {_shown(oid)}; expected an object "
+                       f"number from 0 to {_ID_MAX}")
     target = attrib.get(f"{{{_PRODUCTION}}}path")
-    return (_norm(target) if target else part, int(oid))
+    return (_norm(target) if target else part, n)
 
 
 # each list of a <mesh>: (its element, attributes, number type, wording, limit name)
@@ -278,8 +310,8 @@ _LISTS = {
 class _Reading:
     """An ``<object>`` being read; its mesh lists stream into number chunks."""
 
-    def __init__(self, oid: str, where: str) -> None:
-        self.oid, self.where = oid, where
+    def __init__(self, key: Key, where: str) -> None:
+        self.key, self.where = key, where
         self.mesh = 0  # 0 before its first <mesh>, 1 inside it, 2 after it
         self.mesh_depth = 0
         self.chunks: dict[str, list[NDArray[Any]]] = {"vertices": [],
@@ -298,9 +330,9 @@ class _ModelReader(_Target):
     grow, so a hostile part is refused before its numbers cost memory.
     """
 
-    def __init__(self, pkg: _Package, name: str, *, root: bool) -> None:
+    def __init__(self, pkg: _Package, name: str, *, key: str, root: bool) -> None:
         super().__init__(pkg, name)
-        self.part, self.root = _norm(name), root
+        self.part, self.root = key, root
         self.stack: list[str] = []  # local names of the open elements
         self.objects: list[_Reading] = []  # open objects, innermost last
         self.list: str | None = None  # the mesh list being streamed
@@ -373,16 +405,19 @@ class _ModelReader(_Target):
 
     def open_object(self, attrib: dict[str, str]) -> None:
         pkg = self.pkg
-        oid = attrib.get("id", "")
-        if not oid.isdigit():
-            raise pkg.fail(f"an object in '{self.name}' has id {oid!r}; expected a "
-                           "number")
+        oid = attrib.get("id")
+        if oid is None:
+            raise pkg.fail(f"an object in '{self.name}' has no id")
+        n = _object_id(oid)
+        if n is None:
+            raise pkg.fail(f"an object in '{self.name}' has id {_shown(oid)}; "
+                           f"expected a number from 0 to {_ID_MAX}")
         where = f"object {oid}" + ("" if self.part == pkg.root else
                                    f" of '{self.name}'")
-        if (self.part, int(oid)) in pkg.objects or any(
-                o.oid == oid for o in self.objects):
+        key = (self.part, n)
+        if key in pkg.objects or any(o.key == key for o in self.objects):
             raise pkg.fail(f"{where} is defined twice")
-        self.objects.append(_Reading(oid, where))
+        self.objects.append(_Reading(key, where))
 
     def flush(self) -> None:
         """Parse the buffered elements of the open list to numbers."""
@@ -430,7 +465,7 @@ class _ModelReader(_Target):
             raise pkg.fail(f"{obj.where}: triangle {k} refers to vertices "
                            f"{f[k].tolist()}, but the object has {v.shape[0]} "
                            "vertices")
-        pkg.objects[(self.part, int(obj.oid))] = _Object(v, f, obj.components)
+        pkg.objects[obj.key] = _Object(v, f, obj.components)
 
 
 def _one_each(entry: str) -> bool:
@@ -439,10 +474,14 @@ def _one_each(entry: str) -> bool:
     return len(parts) == 3 and "" not in parts and entry.isprintable()
 
 
-def _parse_part(pkg: _Package, name: str, *, root: bool) -> None:
-    """Read the objects (and, for the root part, the build) of model part ``name``."""
-    pkg.parsed.add(_norm(name))
-    pkg.parse(name, limit=MAX_MODEL_BYTES, target=_ModelReader(pkg, name, root=root))
+def _parse_part(pkg: _Package, key: str, name: str, *, root: bool) -> None:
+    """Read the objects (and, for the root part, the build) of model part ``key``.
+
+    ``name`` is how messages call it.
+    """
+    pkg.parsed.add(key)
+    pkg.parse(name, key=key, limit=MAX_MODEL_BYTES,
+              target=_ModelReader(pkg, name, key=key, root=root))
 
 
 def _model_attributes(pkg: _Package, local: str, attrib: dict[str, str],
@@ -479,9 +518,12 @@ def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
             if key[0] not in pkg.members:
                 raise pkg.fail(f"{where} refers to part '{key[0]}', which the "
                                "package does not contain")
-            _parse_part(pkg, key[0], root=False)
+            _parse_part(pkg, key[0], pkg.members[key[0]].filename, root=False)
         if key not in pkg.objects:
-            raise pkg.fail(f"{where} refers to object {key[1]}, which is not defined")
+            part = ("" if key[0] == pkg.root else
+                    f" of part '{pkg.members[key[0]].filename}'")
+            raise pkg.fail(f"{where} refers to object {key[1]}{part}, which is not "
+                           "defined")
 
     tri: dict[Key, int] = {}
     vert: dict[Key, int] = {}
@@ -570,7 +612,7 @@ def read_3mf(path: Path, size: int) -> tuple[NDArray[np.float64], NDArray[np.int
         pkg = _Package(path, zf, members, budget=MAX_MODEL_BYTES)
         root = _model_part(pkg)
         pkg.root = _norm(root)
-        _parse_part(pkg, root, root=True)
+        _parse_part(pkg, pkg.root, root, root=True)
         if not pkg.items:
             raise pkg.fail("the 3MF build places no objects (no <build> <item>)")
         placed = _expand(pkg)

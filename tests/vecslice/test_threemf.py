@@ -525,3 +525,54 @@ def test_component_cycle_check_does_not_scan_the_chain(tmp_path, monkeypatch):
     v, f = threemf.read_3mf(path, 0)
     assert f.shape == (4, 3)
     assert _CountingKey.calls < 10 * depth
+
+
+def _item_attrs(xml, attrs):
+    return xml.replace('<item objectid="1"/>', f"<item {attrs}/>", 1)
+
+
+BAD_IDS = [
+    # audit s25 D12: these raised a raw ValueError or KeyError
+    ("superscript id", model(mesh_object("\u00b2"), [(1, None)]),
+     r"an object in '/3D/3dmodel\.model' has id '\u00b2'; expected a number"),
+    ("arabic-indic id", model(mesh_object("\u0661"), [(1, None)]),
+     r"has id '\u0661'; expected a number"),
+    ("5000-digit id", model(mesh_object("1" * 5000), [(1, None)]),
+     r"has id '1111111111\S*\.\.\. \(5,000 characters\); expected a number from 0 "
+     r"to 2147483647"),
+    ("id beyond 3MF's range", model(mesh_object(2**31), [(1, None)]),
+     r"has id '2147483648'; expected a number from 0 to 2147483647"),
+    ("missing id", model(mesh_object(1).replace(' id="1"', ""), [(1, None)]),
+     r"an object in '/3D/3dmodel\.model' has no id"),
+    ("superscript objectid", model(mesh_object(1), [("\u00b2", None)]),
+     r"build item 1 has objectid '\u00b2'; expected an object number"),
+    ("missing objectid", _item_attrs(model(mesh_object(1), [(1, None)]), ""),
+     r"build item 1 has no objectid"),
+    ("component objectid", model(mesh_object(1) + components_object(
+        2, [("1" * 5000, None, "")]), [(2, None)]),
+     r"component 0 of object 2 has objectid '1111\S*\.\.\. \(5,000 characters\); "
+     r"expected an object number"),
+    ("duplicate id, leading zero", model(mesh_object(1) + mesh_object("01"),
+                                         [(1, None)]),
+     r"object 01 is defined twice"),
+]
+
+
+@pytest.mark.parametrize(("label", "xml", "match"), BAD_IDS,
+                         ids=[c[0] for c in BAD_IDS])
+def test_bad_object_ids_are_refused_clearly(tmp_path, label, xml, match):
+    err = refused(tmp_path, xml, match)
+    assert "ValueError" not in str(err) and "KeyError" not in str(err)
+
+
+def test_reference_to_an_escaped_part_name(tmp_path):
+    # audit s25 D12: a part whose name holds '%25' was unescaped twice (KeyError)
+    other = model(mesh_object(7), [])
+    res = components_object(1, [(7, None, ' p:path="/3D/a%2541.model"')])
+    m = load(tmp_path, model(res, [(1, None)]),
+             extra=[("3D/a%2541.model", other)])
+    assert m.n_faces == 4
+    res = components_object(1, [(8, None, ' p:path="/3D/a%2541.model"')])
+    refused(tmp_path, model(res, [(1, None)]), r"a component of object 1 refers to "
+            r"object 8 of part '3D/a%2541\.model', which is not defined",
+            extra=[("3D/a%2541.model", other)])
