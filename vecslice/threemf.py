@@ -23,6 +23,8 @@ model's ``unit`` is applied: vertices come out in millimetres.
 
 from __future__ import annotations
 
+import math
+import re
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -243,21 +245,38 @@ def _model_part(pkg: _Package) -> str:
                    "the 3D model, and there is no 3D/3dmodel.model")
 
 
+# ST_Number of the 3MF schemas: optional sign, digits, optional fraction and
+# exponent (the later schemas also take '1.'); no '1_0', 'nan', 'inf' or other
+# scripts' digits, which float() takes
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+_XML_SPACE = re.compile(r"[ \t\r\n]+")  # what XML collapses, no other space
+
+
 def _transform(pkg: _Package, text: str | None, where: str) -> NDArray[np.float64]:
     """A 3MF transform (12 numbers, row-major 3x4 rows + translation) as 4x4.
 
-    Points are row vectors: ``[x y z 1] @ T``.
+    Points are row vectors: ``[x y z 1] @ T``. Numbers follow the 3MF grammar
+    (:data:`_NUMBER`), separated by XML whitespace.
     """
     t = np.eye(4)
     if text is None:
         return t
-    try:
-        m = np.array(text.split(), dtype=np.float64)
-    except ValueError:
-        m = np.empty(0)
-    if m.shape != (12,) or not np.isfinite(m).all():
-        raise pkg.fail(f"{where} has transform {text!r}; expected 12 finite numbers")
-    t[:, :3] = m.reshape(4, 3)
+    body = text.strip(" \t\r\n")
+    tokens = _XML_SPACE.split(body) if body else []
+    why = f", got {len(tokens)}" if len(tokens) != 12 else ""
+    for i, tok in enumerate(tokens if not why else ()):
+        if not _NUMBER.fullmatch(tok):
+            why = (f", but number {i + 1} is {_shown(tok)}, which is not a 3MF "
+                   "number (an optional sign, digits, an optional fraction and "
+                   "exponent: 12, -0.5, 1.5e-3)")
+        elif not math.isfinite(float(tok)):
+            why = f", but number {i + 1} is {tok!r}, beyond the range of float64"
+        if why:
+            break
+    if why:
+        raise pkg.fail(f"{where} has transform {_shown(text, 400)}; expected 12 "
+                       f"finite numbers{why}")
+    t[:, :3] = np.array([float(x) for x in tokens]).reshape(4, 3)
     return t
 
 

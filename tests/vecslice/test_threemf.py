@@ -576,3 +576,49 @@ def test_reference_to_an_escaped_part_name(tmp_path):
     refused(tmp_path, model(res, [(1, None)]), r"a component of object 1 refers to "
             r"object 8 of part '3D/a%2541\.model', which is not defined",
             extra=[("3D/a%2541.model", other)])
+
+
+@pytest.mark.parametrize("bad", [
+    # audit s25 D11: float() took '1_0' as 10 (and these as numbers too)
+    "1_0", "\u0661", "\uff11", "infinity", "nan", "+inf", "1e", ".", "+", "1d5", "1,5",
+    "0x10", "--1", "1.5.2", "e3", "1e+", "1\u00a00"])
+def test_transform_numbers_follow_the_3mf_grammar(tmp_path, bad):
+    text = move(dx=bad)
+    err = refused(tmp_path, model(mesh_object(1), [(1, text)]),
+                  r"'.*m\.3mf': build item 1 has transform ")
+    assert f"expected 12 finite numbers, but number 10 is {bad!r}, which is not a " \
+           "3MF number" in str(err)
+
+
+def test_transform_numbers_beyond_float64_are_refused(tmp_path):
+    refused(tmp_path, model(mesh_object(1), [(1, move(dz="-1e999"))]),
+            r"build item 1 has transform '.*'; expected 12 finite numbers, but "
+            r"number 12 is '-1e999', beyond the range of float64")
+
+
+def test_component_transform_is_read_strictly(tmp_path):
+    res = mesh_object(1) + components_object(2, [(1, move(dy="2_0"), "")])
+    refused(tmp_path, model(res, [(2, None)]),
+            r"component 0 of object 2 has transform .*number 11 is '2_0'")
+
+
+@pytest.mark.parametrize(("number", "dx_um"), [
+    ("+1", 1000), ("-.5", -500), ("1E+1", 10_000), ("2.", 2000), ("007", 7000),
+    ("5e-1", 500)])
+def test_transform_numbers_the_grammar_allows(tmp_path, number, dx_um):
+    m = load(tmp_path, model(mesh_object(1), [(1, move(dx=number))]))
+    assert m.bounds[0].tolist() == [dx_um, 0, 0]
+
+
+def test_transform_whitespace_is_xml_whitespace(tmp_path):
+    # tabs and line ends separate numbers (as XML collapses them), no other space
+    text = "1\t0 0&#10;0 1 0&#13;0 0 1  3 0 0 "
+    m = load(tmp_path, model(mesh_object(1), [(1, text)]))
+    assert m.bounds[0].tolist() == [3000, 0, 0]
+
+
+@pytest.mark.parametrize(("text", "got"), [("", 0), (" \t", 0), ("1 " * 13, 13)])
+def test_transform_number_count(tmp_path, text, got):
+    refused(tmp_path, model(mesh_object(1), [(1, None)]).replace(
+        '<item objectid="1"/>', f'<item objectid="1" transform="{text}"/>'),
+        rf"build item 1 has transform .*; expected 12 finite numbers, got {got}$")
