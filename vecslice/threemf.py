@@ -34,7 +34,7 @@ from urllib.parse import unquote
 import numpy as np
 from numpy.typing import NDArray
 
-from vecslice.errors import MeshFileError
+from vecslice.errors import InputValueError, MeshFileError
 from vecslice.meshfile import _numbers
 
 if TYPE_CHECKING:
@@ -462,6 +462,11 @@ class _ModelReader(_Target):
             raise pkg.fail(f"{obj.where}: triangle {obj.n[kind] + k} refers to "
                            f"vertices [{', '.join(buf[k].split(' '))}], but the "
                            f"object has {obj.n['vertices']} vertices")
+        if kind == "vertices" and not np.isfinite(a).all():  # named as read
+            k = int(np.flatnonzero(~np.isfinite(a))[0]) // 3
+            raise InputValueError(
+                f"`vertices` must be finite; got {buf[k]!r} (x, y, z as written) at "
+                f"vertex {obj.n[kind] + k} of {obj.where} in '{pkg.path}'")
         obj.chunks[kind].append(a)
         obj.n[kind] += len(buf)
         pkg.counts[element] += len(buf)
@@ -608,7 +613,8 @@ def read_3mf(path: Path, size: int) -> tuple[NDArray[np.float64], NDArray[np.int
     Raises :class:`~vecslice.errors.MeshFileError` for a damaged package, a
     missing model, an unknown unit, an unsupported required extension, a bad
     reference or transform, a component cycle, or a part or expansion beyond the
-    limits of this module.
+    limits of this module; :class:`~vecslice.errors.InputValueError` for a
+    vertex that is not finite (named as written, with its object and index).
     """
     try:
         zf = zipfile.ZipFile(path)

@@ -622,3 +622,25 @@ def test_transform_number_count(tmp_path, text, got):
     refused(tmp_path, model(mesh_object(1), [(1, None)]).replace(
         '<item objectid="1"/>', f'<item objectid="1" transform="{text}"/>'),
         rf"build item 1 has transform .*; expected 12 finite numbers, got {got}$")
+
+
+@pytest.mark.parametrize("bad", ["nan", "-inf", "1e999", "NaN"])
+def test_non_finite_vertex_is_named_as_read(tmp_path, bad):
+    # audit s25 D13: reported after the transform and unit, at its index among
+    # all placements: "got [nan, nan, nan] at vertex 6"
+    v = [*TET_V[:3], (0, bad, 10)]
+    res = mesh_object(1) + mesh_object(2, v=v)
+    with pytest.raises(vs.InputValueError) as info:
+        load(tmp_path, model(res, [(1, None), (2, move(dx=5))], unit="inch"))
+    assert isinstance(info.value, ValueError)
+    assert str(info.value) == (
+        f"`vertices` must be finite; got '0 {bad} 10' (x, y, z as written) at "
+        f"vertex 3 of object 2 in '{tmp_path / 'm.3mf'}'")
+
+
+def test_non_finite_vertex_in_another_part(tmp_path):
+    other = model(mesh_object(7, v=[*TET_V[:3], ("nan", 0, 10)]), [])
+    res = components_object(1, [(7, None, ' p:path="/3D/other.model"')])
+    with pytest.raises(vs.InputValueError, match=r"got 'nan 0 10' \(x, y, z as "
+                       r"written\) at vertex 3 of object 7 of '3D/other\.model' in"):
+        load(tmp_path, model(res, [(1, None)]), extra=[("3D/other.model", other)])
