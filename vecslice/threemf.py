@@ -13,7 +13,9 @@ access, without entity resolution and with libxml2's size guards; a document typ
 declaration is refused. No XML tree is built: ``<vertex>`` and ``<triangle>``
 elements are parsed to numbers in chunks, and their counts are checked against
 :data:`MAX_BUILD_VERTICES` and :data:`MAX_BUILD_TRIANGLES` as they grow, so memory
-stays near 24 bytes per vertex and per triangle. Every build item and every
+stays near 24 bytes per vertex and per triangle; ``<item>`` and ``<component>``
+elements are counted against :data:`MAX_INSTANCES` as they are read, and those
+without a transform share one identity matrix. Every build item and every
 component is walked, so an object reused in nested components appears once per
 placement, with the transforms composed; component cycles and expansions beyond
 :data:`MAX_BUILD_TRIANGLES` triangles, :data:`MAX_BUILD_VERTICES` vertices or
@@ -53,7 +55,13 @@ Model XML compresses about 5 to 20 times; a zip bomb a thousand times or more.
 """
 
 MAX_INSTANCES = 1_000_000
-"""Most object placements the build may expand to (components in components)."""
+"""Most object placements the build may expand to (components in components).
+
+Also the most ``<item>`` and ``<component>`` elements a 3MF may hold, all parts
+together: each places an object at least once, and each is kept (with its
+object, about 130 bytes, 370 with a transform) until the build is expanded,
+so they are counted as they are read and the one past the limit is refused.
+"""
 
 MAX_BUILD_TRIANGLES = 30_000_000
 """Most triangles a 3MF may hold, in its objects and after expanding components.
@@ -93,6 +101,8 @@ _RATIO_FROM = 1 << 20
 Key = tuple[str, int]  # (model part, object id)
 
 
+_IDENTITY = np.eye(4)
+_IDENTITY.flags.writeable = False  # the transform of every placement without one
 _SATURATED = np.iinfo(np.int64).max  # numpy's parse of any integer beyond int64
 _FEED = 1 << 20  # bytes of XML handed to the parser at a time
 _CHUNK = 1 << 16  # vertices or triangles parsed to numbers at a time
@@ -117,12 +127,32 @@ class _Package:
     objects: dict[Key, _Object] = field(default_factory=dict)
     parsed: set[str] = field(default_factory=set)
     items: list[tuple[Key, NDArray[np.float64]]] = field(default_factory=list)
+    refs: int = 0  # <item> and <component> elements read so far
+    # one key tuple per referenced object, shared by its references
+    keys: dict[Key, Key] = field(default_factory=dict)
     # vertices and triangles of every object read so far (placed or not)
     counts: dict[str, int] = field(
         default_factory=lambda: {"vertex": 0, "triangle": 0})
 
     def fail(self, what: str) -> MeshFileError:
         return MeshFileError(f"'{self.path}': {what}")
+
+    def placement(self, attrib: dict[str, str], part: str,
+                  where: str) -> tuple[Key, NDArray[np.float64]]:
+        """The (object, transform) of an ``<item>`` or ``<component>``, counted.
+
+        Each one places an object at least once, so more than
+        :data:`MAX_INSTANCES` of them are refused as they are read, before they
+        cost memory (each is kept until the build is expanded).
+        """
+        self.refs += 1
+        if self.refs > MAX_INSTANCES:
+            raise self.fail(
+                f"the 3MF holds more than {MAX_INSTANCES:,} build items and "
+                f"components ({where} is one more); vecslice reads at most "
+                f"{MAX_INSTANCES:,} (vecslice.threemf.MAX_INSTANCES)")
+        return (_ref(self, attrib, part, where),
+                _transform(self, attrib.get("transform"), where))
 
     def member(self, key: str, name: str, *, limit: int) -> zipfile.ZipInfo:
         """Member ``key`` (called ``name``) after checking its declared sizes."""
@@ -258,9 +288,9 @@ def _transform(pkg: _Package, text: str | None, where: str) -> NDArray[np.float6
     Points are row vectors: ``[x y z 1] @ T``. Numbers follow the 3MF grammar
     (:data:`_NUMBER`), separated by XML whitespace.
     """
-    t = np.eye(4)
     if text is None:
-        return t
+        return _IDENTITY
+    t = np.eye(4)
     body = text.strip(" \t\r\n")
     tokens = _XML_SPACE.split(body) if body else []
     why = f", got {len(tokens)}" if len(tokens) != 12 else ""
@@ -314,7 +344,8 @@ def _ref(pkg: _Package, attrib: dict[str, str], part: str, where: str) -> Key:
         raise pkg.fail(f"{where} has objectid {_shown(oid)}; expected an object "
                        f"number from 0 to {_ID_MAX}")
     target = attrib.get(f"{{{_PRODUCTION}}}path")
-    return (_norm(target) if target else part, n)
+    key = (_norm(target) if target else part, n)
+    return pkg.keys.setdefault(key, key)  # one tuple per object, not per reference
 
 
 # each list of a <mesh>: (its element, attributes, number type, wording, limit name)
@@ -383,9 +414,8 @@ class _ModelReader(_Target):
             self.build += 1
         elif local == "item" and self.build and self.root:
             pkg = self.pkg
-            where = f"build item {len(pkg.items) + 1}"
-            pkg.items.append((_ref(pkg, attrib, self.part, where),
-                              _transform(pkg, attrib.get("transform"), where)))
+            where = f"build item {len(pkg.items) + 1:,}"
+            pkg.items.append(pkg.placement(attrib, self.part, where))
         if not self.objects or local in ("object", "build", "item"):
             return
         grand = stack[-3] if len(stack) >= 3 else ""
@@ -400,9 +430,8 @@ class _ModelReader(_Target):
             self.element, self.names = _LISTS[local][:2]
         elif local == "component" and parent == "components" and grand == "object":
             pkg = self.pkg
-            cw = f"component {len(obj.components)} of {obj.where}"
-            obj.components.append((_ref(pkg, attrib, self.part, cw),
-                                   _transform(pkg, attrib.get("transform"), cw)))
+            cw = f"component {len(obj.components):,} of {obj.where}"
+            obj.components.append(pkg.placement(attrib, self.part, cw))
 
     def end(self, tag: str) -> None:
         local = tag[tag.rfind("}") + 1:]
@@ -553,7 +582,7 @@ def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
     vert: dict[Key, int] = {}
     inst: dict[Key, int] = {}
     for n, (key, _) in enumerate(pkg.items):
-        check(key, f"build item {n + 1}")
+        check(key, f"build item {n + 1:,}")
         if key in tri:
             continue
         # the objects on the path from the item: in order (the stack) and as a
@@ -598,13 +627,22 @@ def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
                        f"vecslice reads at most {MAX_INSTANCES:,} "
                        "(vecslice.threemf.MAX_INSTANCES)")
     placed: dict[Key, list[NDArray[np.float64]]] = {}
-    todo = [(k, t) for k, t in reversed(pkg.items)]
-    while todo:  # depth first, in file order
-        key, world = todo.pop()
-        if pkg.objects[key].faces.shape[0]:
-            placed.setdefault(key, []).append(world)
-        todo.extend((c, t @ world) for c, t in reversed(children(key)))
+    for item in pkg.items:  # depth first, in file order
+        todo = [item]
+        while todo:
+            key, world = todo.pop()
+            if pkg.objects[key].faces.shape[0]:
+                placed.setdefault(key, []).append(world)
+            todo.extend((c, _compose(t, world)) for c, t in reversed(children(key)))
     return list(placed.items())
+
+
+def _compose(t: NDArray[np.float64], world: NDArray[np.float64]
+             ) -> NDArray[np.float64]:
+    """``t @ world``, without a new matrix when either is :data:`_IDENTITY`."""
+    if t is _IDENTITY:
+        return world
+    return t if world is _IDENTITY else t @ world
 
 
 def read_3mf(path: Path, size: int) -> tuple[NDArray[np.float64], NDArray[np.int64]]:

@@ -195,8 +195,8 @@ def test_zip_bomb_model_is_refused_before_inflating(tmp_path):
     assert _peak_mib(lambda: _refuse(path)) < 8
 
 
-def _refuse(path):
-    with pytest.raises(vs.MeshFileError):
+def _refuse(path, match=None):
+    with pytest.raises(vs.MeshFileError, match=match):
         vs.load_mesh(path)
 
 
@@ -644,3 +644,50 @@ def test_non_finite_vertex_in_another_part(tmp_path):
     with pytest.raises(vs.InputValueError, match=r"got 'nan 0 10' \(x, y, z as "
                        r"written\) at vertex 3 of object 7 of '3D/other\.model' in"):
         load(tmp_path, model(res, [(1, None)]), extra=[("3D/other.model", other)])
+
+
+def _items(n, transform=True):
+    """n build items of object 1, each moved differently (or not moved)."""
+    return [(1, move(dx=i % 997, dy=i // 997) if transform else None)
+            for i in range(n)]
+
+
+def test_build_items_are_counted_while_reading(tmp_path, monkeypatch):
+    # audit s25 D01: every <item> was kept, with its own 4x4 matrix, and only
+    # counted once the build was read (a 358 kB file took 1.35 GB)
+    monkeypatch.setattr("vecslice.threemf.MAX_INSTANCES", 1000)
+    path = write_3mf(tmp_path / "items.3mf", model(mesh_object(1), _items(200_000)),
+                     method=zipfile.ZIP_STORED)
+    with pytest.raises(vs.MeshFileError, match=r"items\.3mf': the 3MF holds more "
+                       r"than 1,000 build items and components \(build item 1,001 "
+                       r"is one more\); vecslice reads at most 1,000 "
+                       r"\(vecslice\.threemf\.MAX_INSTANCES\)"):
+        vs.load_mesh(path)
+    assert _peak_mib(lambda: _refuse(path)) < 8  # 200,000 matrices: 50 MiB
+
+
+def test_components_are_counted_while_reading(tmp_path, monkeypatch):
+    monkeypatch.setattr("vecslice.threemf.MAX_INSTANCES", 1000)
+    parts = [(1, t, "") for _, t in _items(100_000)]
+    res = mesh_object(1) + components_object(2, parts[:500]) + components_object(
+        3, parts[500:])
+    path = write_3mf(tmp_path / "comps.3mf", model(res, [(2, None)]),
+                     method=zipfile.ZIP_STORED)
+    with pytest.raises(vs.MeshFileError, match=r"comps\.3mf': the 3MF holds more "
+                       r"than 1,000 build items and components \(component 500 of "
+                       r"object 3 is one more\)"):
+        vs.load_mesh(path)
+    assert _peak_mib(lambda: _refuse(path)) < 8
+
+
+def test_placements_without_transform_share_one_matrix(tmp_path):
+    # audit s25 D01: np.eye(4) per item and component (240 bytes each) and a
+    # key tuple per reference: 440 bytes an item. The object holds no
+    # triangles, so what is measured is reading and walking the build.
+    n = 20_000
+    empty = '<object id="1" type="model"><mesh><vertices/><triangles/></mesh></object>'
+    res = empty + components_object(2, [(1, None, "")])
+    path = write_3mf(tmp_path / "same.3mf", model(res, [(2, None)] * n),
+                     method=zipfile.ZIP_STORED)
+    _refuse(path, match="holds no triangles")  # imports outside the measure
+    assert _peak_mib(lambda: _refuse(path)) * 2**20 / n < 250  # bytes an item
