@@ -13,9 +13,10 @@ access, without entity resolution and with libxml2's size guards; a document typ
 declaration is refused. No XML tree is built: ``<vertex>`` and ``<triangle>``
 elements are parsed to numbers in chunks, and their counts are checked against
 :data:`MAX_BUILD_VERTICES` and :data:`MAX_BUILD_TRIANGLES` as they grow, so memory
-stays near 24 bytes per vertex and per triangle; ``<item>`` and ``<component>``
-elements are counted against :data:`MAX_INSTANCES` as they are read, and those
-without a transform share one identity matrix. Every build item and every
+stays near 24 bytes per vertex and per triangle; ``<object>`` elements are
+counted against :data:`MAX_OBJECTS`, ``<item>`` and ``<component>`` elements
+against :data:`MAX_INSTANCES` as they are read, and those without a transform
+share one identity matrix. Every build item and every
 component is walked, so an object reused in nested components appears once per
 placement, with the transforms composed; component cycles and expansions beyond
 :data:`MAX_BUILD_TRIANGLES` triangles, :data:`MAX_BUILD_VERTICES` vertices or
@@ -28,6 +29,7 @@ from __future__ import annotations
 import math
 import re
 import zipfile
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -43,7 +45,7 @@ if TYPE_CHECKING:
     pass
 
 __all__ = ["MAX_BUILD_TRIANGLES", "MAX_BUILD_VERTICES", "MAX_COMPRESSION_RATIO",
-           "MAX_INSTANCES", "MAX_MODEL_BYTES", "UNITS", "read_3mf"]
+           "MAX_INSTANCES", "MAX_MODEL_BYTES", "MAX_OBJECTS", "UNITS", "read_3mf"]
 
 MAX_MODEL_BYTES = 1 << 30
 """Most bytes (1 GiB) the model parts of one 3MF may inflate to, all together."""
@@ -61,6 +63,16 @@ Also the most ``<item>`` and ``<component>`` elements a 3MF may hold, all parts
 together: each places an object at least once, and each is kept (with its
 object, about 130 bytes, 370 with a transform) until the build is expanded,
 so they are counted as they are read and the one past the limit is refused.
+"""
+
+MAX_OBJECTS = 100_000
+"""Most ``<object>`` elements a 3MF may hold, all model parts together.
+
+Each costs about 200 bytes before its mesh (a million objects cost 770 MB before
+this was slimmed and capped), whether it is placed or not, so they are counted
+as they are read and the one past the limit is refused. A plate of parts uses
+one or a few objects per part; 100,000 is a plate of ten thousand
+multi-part assemblies.
 """
 
 MAX_BUILD_TRIANGLES = 30_000_000
@@ -103,17 +115,21 @@ Key = tuple[str, int]  # (model part, object id)
 
 _IDENTITY = np.eye(4)
 _IDENTITY.flags.writeable = False  # the transform of every placement without one
+_NO_VERTICES = np.empty((0, 3))
+_NO_VERTICES.flags.writeable = False  # the arrays of every object without triangles
+_NO_FACES = np.empty((0, 3), dtype=np.int64)
+_NO_FACES.flags.writeable = False
 _SATURATED = np.iinfo(np.int64).max  # numpy's parse of any integer beyond int64
 _FEED = 1 << 20  # bytes of XML handed to the parser at a time
 _CHUNK = 1 << 16  # vertices or triangles parsed to numbers at a time
 
 
-@dataclass
+@dataclass(slots=True)
 class _Object:
     vertices: NDArray[np.float64]
     faces: NDArray[np.int64]
     # (model part, object id, 4x4 row-vector transform) of each component
-    components: list[tuple[Key, NDArray[np.float64]]] = field(default_factory=list)
+    components: Sequence[tuple[Key, NDArray[np.float64]]] = ()
 
 
 @dataclass
@@ -128,6 +144,7 @@ class _Package:
     parsed: set[str] = field(default_factory=set)
     items: list[tuple[Key, NDArray[np.float64]]] = field(default_factory=list)
     refs: int = 0  # <item> and <component> elements read so far
+    n_objects: int = 0  # <object> elements read so far
     # one key tuple per referenced object, shared by its references
     keys: dict[Key, Key] = field(default_factory=dict)
     # vertices and triangles of every object read so far (placed or not)
@@ -462,6 +479,12 @@ class _ModelReader(_Target):
                            f"expected a number from 0 to {_ID_MAX}")
         where = f"object {oid}" + ("" if self.part == pkg.root else
                                    f" of '{self.name}'")
+        pkg.n_objects += 1
+        if pkg.n_objects > MAX_OBJECTS:
+            raise pkg.fail(
+                f"the 3MF holds more than {MAX_OBJECTS:,} objects ({where} is one "
+                f"more); vecslice reads at most {MAX_OBJECTS:,} "
+                "(vecslice.threemf.MAX_OBJECTS)")
         key = (self.part, n)
         if key in pkg.objects or any(o.key == key for o in self.objects):
             raise pkg.fail(f"{where} is defined twice")
@@ -509,6 +532,10 @@ class _ModelReader(_Target):
 
     def close_object(self, obj: _Reading) -> None:
         pkg = self.pkg
+        components = obj.components or ()
+        if not obj.chunks["triangles"]:  # nothing to place: no arrays kept
+            pkg.objects[obj.key] = _Object(_NO_VERTICES, _NO_FACES, components)
+            return
         v, f = (np.concatenate(obj.chunks[k]) if obj.chunks[k] else np.empty(0)
                 for k in _LISTS)
         v, f = v.reshape(-1, 3), f.astype(np.int64, copy=False).reshape(-1, 3)
@@ -518,7 +545,7 @@ class _ModelReader(_Target):
             raise pkg.fail(f"{obj.where}: triangle {k} refers to vertices "
                            f"{f[k].tolist()}, but the object has {v.shape[0]} "
                            "vertices")
-        pkg.objects[obj.key] = _Object(v, f, obj.components)
+        pkg.objects[obj.key] = _Object(v, f, components)
 
 
 def _one_each(entry: str) -> bool:

@@ -691,3 +691,35 @@ def test_placements_without_transform_share_one_matrix(tmp_path):
                      method=zipfile.ZIP_STORED)
     _refuse(path, match="holds no triangles")  # imports outside the measure
     assert _peak_mib(lambda: _refuse(path)) * 2**20 / n < 250  # bytes an item
+
+
+def test_objects_are_counted_while_reading(tmp_path, monkeypatch):
+    # audit s25 D02: no cap on <object> elements, about 1 kB each (2.6 MB of
+    # file took 1 GB)
+    monkeypatch.setattr("vecslice.threemf.MAX_OBJECTS", 1000)
+    res = mesh_object(1) + "".join(components_object(i, [(1, None, "")])
+                                   for i in range(2, 100_000))
+    path = write_3mf(tmp_path / "objs.3mf", model(res, [(1, None)]),
+                     method=zipfile.ZIP_STORED)
+    with pytest.raises(vs.MeshFileError, match=r"objs\.3mf': the 3MF holds more "
+                       r"than 1,000 objects \(object 1001 is one more\); vecslice "
+                       r"reads at most 1,000 \(vecslice\.threemf\.MAX_OBJECTS\)"):
+        vs.load_mesh(path)
+    assert _peak_mib(lambda: _refuse(path)) < 8  # 100,000 objects: 75 MiB
+    other = model(mesh_object(7), [])  # the objects of every part count
+    res = mesh_object(1) + "".join(components_object(i, []) for i in range(2, 1000))
+    res += components_object(1000, [(7, None, ' p:path="/3D/other.model"')])
+    refused(tmp_path, model(res, [(1000, None)]), r"holds more than 1,000 objects "
+            r"\(object 7 of '3D/other\.model' is one more\)",
+            extra=[("3D/other.model", other)])
+
+
+def test_objects_without_triangles_are_small(tmp_path):
+    # audit s25 D02: each kept two empty arrays, a list and a __dict__ (770 bytes)
+    n = 20_000
+    res = mesh_object(1) + "".join(components_object(i, [])
+                                   for i in range(2, n + 2))
+    path = write_3mf(tmp_path / "objs.3mf", model(res, [(1, None)]),
+                     method=zipfile.ZIP_STORED)
+    vs.load_mesh(path)  # imports outside the measure
+    assert _peak_mib(lambda: vs.load_mesh(path)) * 2**20 / n < 300  # bytes
