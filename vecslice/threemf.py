@@ -16,12 +16,14 @@ elements are parsed to numbers in chunks, and their counts are checked against
 stays near 24 bytes per vertex and per triangle; ``<object>`` elements are
 counted against :data:`MAX_OBJECTS`, ``<item>`` and ``<component>`` elements
 against :data:`MAX_INSTANCES` as they are read, and those without a transform
-share one identity matrix. Every build item and every
-component is walked, so an object reused in nested components appears once per
-placement, with the transforms composed; component cycles and expansions beyond
-:data:`MAX_BUILD_TRIANGLES` triangles, :data:`MAX_BUILD_VERTICES` vertices or
-:data:`MAX_INSTANCES` placements are refused before any placement is made. The
-model's ``unit`` is applied: vertices come out in millimetres.
+share one identity matrix. Every build item and every component is walked, so
+an object reused in nested components appears once per placement, with the
+transforms composed; component cycles and expansions beyond
+:data:`MAX_BUILD_TRIANGLES` triangles, :data:`MAX_BUILD_VERTICES` vertices,
+:data:`MAX_INSTANCES` placements, or more than :data:`MAX_EXPANDED_TRIANGLES`
+triangles from fewer held, are refused from the counts of the component graph
+before any placement is made. The model's ``unit`` is applied: vertices come out
+in millimetres.
 """
 
 from __future__ import annotations
@@ -45,7 +47,8 @@ if TYPE_CHECKING:
     pass
 
 __all__ = ["MAX_BUILD_TRIANGLES", "MAX_BUILD_VERTICES", "MAX_COMPRESSION_RATIO",
-           "MAX_INSTANCES", "MAX_MODEL_BYTES", "MAX_OBJECTS", "UNITS", "read_3mf"]
+           "MAX_EXPANDED_TRIANGLES", "MAX_INSTANCES", "MAX_MODEL_BYTES",
+           "MAX_OBJECTS", "UNITS", "read_3mf"]
 
 MAX_MODEL_BYTES = 1 << 30
 """Most bytes (1 GiB) the model parts of one 3MF may inflate to, all together."""
@@ -71,8 +74,7 @@ MAX_OBJECTS = 100_000
 Each costs about 200 bytes before its mesh (a million objects cost 770 MB before
 this was slimmed and capped), whether it is placed or not, so they are counted
 as they are read and the one past the limit is refused. A plate of parts uses
-one or a few objects per part; 100,000 is a plate of ten thousand
-multi-part assemblies.
+one object or a few per part.
 """
 
 MAX_BUILD_TRIANGLES = 30_000_000
@@ -80,8 +82,26 @@ MAX_BUILD_TRIANGLES = 30_000_000
 
 Components let a file of a few kB place an object millions of times, so this
 caps the result (720 MB of faces), not the file: a 3MF holding or placing more
-is refused before its arrays are made. 3DBenchy has 225,154 triangles; a plate of
-a hundred detailed parts stays below it.
+is refused before its arrays are made (placements that multiply the triangles
+held are also capped by :data:`MAX_EXPANDED_TRIANGLES`). 3DBenchy has 225,154
+triangles; a plate of a hundred detailed parts stays below it.
+"""
+
+MAX_EXPANDED_TRIANGLES = 2_000_000
+"""Most triangles placements may multiply a 3MF's objects to, unless they hold more.
+
+A file's own triangles cost file bytes, as in every other format (a binary STL
+50 bytes each; :data:`MAX_BUILD_TRIANGLES` caps them). Placements cost almost
+nothing: 2 kB of nested components placed 147 triangles 100,000 times, within
+:data:`MAX_BUILD_TRIANGLES`, and loading and repairing a mesh takes about 0.2 to
+1 kB a triangle (measured; up to 3.3 kB in an audit), so 14.7 million
+triangles took up to 24 GB. A build is therefore refused when it expands to
+more than ``max(MAX_EXPANDED_TRIANGLES, triangles its objects hold)``
+triangles, or more than three vertices a triangle of that (the vertex limit of
+:mod:`vecslice.meshfile` is also three times its triangle limit). The counts
+come from the component graph, before any placement is made. Two million
+triangles place a 3DBenchy eight times; a file that writes each copy out is
+limited by :data:`MAX_BUILD_TRIANGLES` only.
 """
 
 MAX_BUILD_VERTICES = 30_000_000
@@ -119,6 +139,7 @@ _NO_VERTICES = np.empty((0, 3))
 _NO_VERTICES.flags.writeable = False  # the arrays of every object without triangles
 _NO_FACES = np.empty((0, 3), dtype=np.int64)
 _NO_FACES.flags.writeable = False
+_MANY = 2**62  # expanded counts saturate here: beyond every limit, a small int
 _SATURATED = np.iinfo(np.int64).max  # numpy's parse of any integer beyond int64
 _FEED = 1 << 20  # bytes of XML handed to the parser at a time
 _CHUNK = 1 << 16  # vertices or triangles parsed to numbers at a time
@@ -623,10 +644,14 @@ def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
                 stack.pop()
                 active.discard(node)
                 o = pkg.objects[node]
-                tri[node] = o.faces.shape[0] + sum(tri[c] for c, _ in children(node))
-                vert[node] = (o.vertices.shape[0] if o.faces.shape[0] else 0) + sum(
-                    vert[c] for c, _ in children(node))
-                inst[node] = 1 + sum(inst[c] for c, _ in children(node))
+                # saturated: exact integers grew a digit a level (kilobytes
+                # each at the end of a chain of a thousand objects)
+                kids = children(node)
+                tri[node] = min(_MANY, o.faces.shape[0]
+                                + sum(tri[c] for c, _ in kids))
+                vert[node] = min(_MANY, (o.vertices.shape[0] if o.faces.shape[0]
+                                         else 0) + sum(vert[c] for c, _ in kids))
+                inst[node] = min(_MANY, 1 + sum(inst[c] for c, _ in kids))
                 continue
             ck = child[0]
             check(ck, f"a component of object {node[1]}")
@@ -638,21 +663,34 @@ def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
             if ck not in tri:
                 stack.append((ck, iter(children(ck))))
                 active.add(ck)
-    n_tri = sum(tri[k] for k, _ in pkg.items)
-    n_vert = sum(vert[k] for k, _ in pkg.items)
-    n_inst = sum(inst[k] for k, _ in pkg.items)
+    n_tri = min(_MANY, sum(tri[k] for k, _ in pkg.items))
+    n_vert = min(_MANY, sum(vert[k] for k, _ in pkg.items))
+    n_inst = min(_MANY, sum(inst[k] for k, _ in pkg.items))
     if n_tri > MAX_BUILD_TRIANGLES:
-        raise pkg.fail(f"the 3MF build expands to {n_tri:,} triangles; vecslice "
-                       f"reads at most {MAX_BUILD_TRIANGLES:,} "
+        raise pkg.fail(f"the 3MF build expands to {_many(n_tri)} triangles; "
+                       f"vecslice reads at most {MAX_BUILD_TRIANGLES:,} "
                        "(vecslice.threemf.MAX_BUILD_TRIANGLES)")
     if n_vert > MAX_BUILD_VERTICES:
-        raise pkg.fail(f"the 3MF build expands to {n_vert:,} vertices; vecslice "
-                       f"reads at most {MAX_BUILD_VERTICES:,} "
+        raise pkg.fail(f"the 3MF build expands to {_many(n_vert)} vertices; "
+                       f"vecslice reads at most {MAX_BUILD_VERTICES:,} "
                        "(vecslice.threemf.MAX_BUILD_VERTICES)")
     if n_inst > MAX_INSTANCES:
-        raise pkg.fail(f"the 3MF build expands to {n_inst:,} object placements; "
-                       f"vecslice reads at most {MAX_INSTANCES:,} "
+        raise pkg.fail(f"the 3MF build expands to {_many(n_inst)} object "
+                       f"placements; vecslice reads at most {MAX_INSTANCES:,} "
                        "(vecslice.threemf.MAX_INSTANCES)")
+    held = pkg.counts["triangle"]
+    if n_tri > max(MAX_EXPANDED_TRIANGLES, held):
+        raise pkg.fail(f"the 3MF build expands to {n_tri:,} triangles from the "
+                       f"{held:,} its objects hold; vecslice expands a 3MF to at "
+                       f"most {MAX_EXPANDED_TRIANGLES:,} triangles, or as many as "
+                       "its objects hold (vecslice.threemf.MAX_EXPANDED_TRIANGLES)")
+    held = pkg.counts["vertex"]
+    if n_vert > max(3 * MAX_EXPANDED_TRIANGLES, held):
+        raise pkg.fail(f"the 3MF build expands to {n_vert:,} vertices from the "
+                       f"{held:,} its objects hold; vecslice expands a 3MF to at "
+                       f"most {3 * MAX_EXPANDED_TRIANGLES:,} vertices (3 x "
+                       "vecslice.threemf.MAX_EXPANDED_TRIANGLES), or as many as "
+                       "its objects hold")
     placed: dict[Key, list[NDArray[np.float64]]] = {}
     for item in pkg.items:  # depth first, in file order
         todo = [item]
@@ -662,6 +700,11 @@ def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
                 placed.setdefault(key, []).append(world)
             todo.extend((c, _compose(t, world)) for c, t in reversed(children(key)))
     return list(placed.items())
+
+
+def _many(n: int) -> str:
+    """A count for a message: saturated ones (:data:`_MANY`) as 'more than'."""
+    return f"{n:,}" if n < _MANY else f"more than {_MANY:,}"
 
 
 def _compose(t: NDArray[np.float64], world: NDArray[np.float64]

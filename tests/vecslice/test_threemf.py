@@ -723,3 +723,74 @@ def test_objects_without_triangles_are_small(tmp_path):
                      method=zipfile.ZIP_STORED)
     vs.load_mesh(path)  # imports outside the measure
     assert _peak_mib(lambda: vs.load_mesh(path)) * 2**20 / n < 300  # bytes
+
+
+def _strip(n):
+    """An object of n triangles in a strip (n + 2 vertices)."""
+    return mesh_object(1, v=[(i, i % 2, 0) for i in range(n + 2)],
+                       f=[(i, i + 1, i + 2) for i in range(n)])
+
+
+def test_expansion_beyond_the_held_triangles_is_capped(tmp_path, monkeypatch):
+    # audit s25 D05: placements multiply a few triangles within MAX_BUILD_TRIANGLES
+    monkeypatch.setattr("vecslice.threemf.MAX_EXPANDED_TRIANGLES", 1000)
+
+    def placed(n):
+        return mesh_object(1) + components_object(
+            2, [(1, move(dx=20 * i), "") for i in range(n)])
+
+    refused(tmp_path, model(placed(251), [(2, None)]),
+            r"the 3MF build expands to 1,004 triangles from the 4 its objects "
+            r"hold; vecslice expands a 3MF to at most 1,000 triangles, or as many "
+            r"as its objects hold \(vecslice\.threemf\.MAX_EXPANDED_TRIANGLES\)$")
+    assert load(tmp_path, model(placed(250), [(2, None)]),
+                name="ok.3mf").n_faces == 1000  # at the limit
+    # a file that holds the triangles it places is limited as any file
+    held = _strip(1200)
+    assert load(tmp_path, model(held, [(1, None)])).n_faces == 1200
+    refused(tmp_path, model(held, [(1, None), (1, move(dz=5))]),
+            r"expands to 2,400 triangles from the 1,200 its objects hold")
+
+
+def test_expanded_vertices_are_capped_at_three_per_triangle(tmp_path, monkeypatch):
+    monkeypatch.setattr("vecslice.threemf.MAX_EXPANDED_TRIANGLES", 1000)
+    one = mesh_object(1, v=_many_vertices(300), f=[(0, 1, 2)])  # 300 a triangle
+    refused(tmp_path, model(one, [(1, move(dx=i)) for i in range(11)]),
+            r"the 3MF build expands to 3,300 vertices from the 300 its objects "
+            r"hold; vecslice expands a 3MF to at most 3,000 vertices \(3 x "
+            r"vecslice\.threemf\.MAX_EXPANDED_TRIANGLES\), or as many as its "
+            r"objects hold$")
+    assert load(tmp_path, model(one, [(1, move(dx=i)) for i in range(10)]),
+                name="ok.3mf").n_faces == 10
+
+
+def test_default_expansion_cap_refuses_the_audit_file(tmp_path):
+    # audit s25 D05: 1.8 kB placing 147 triangles 100,000 times (14.7M, below
+    # MAX_BUILD_TRIANGLES) was expanded, then repaired at about 1-3 kB a
+    # triangle (24 GB). Refused from the counts: nothing is placed.
+    res = _strip(147) + "".join(
+        components_object(k + 1, [(k, move(dz=k * i), "") for i in range(10)])
+        for k in range(1, 4)) + components_object(
+        5, [(4, move(dy=i), "") for i in range(100)])
+    path = write_3mf(tmp_path / "amp.3mf", model(res, [(5, None)]))
+    assert path.stat().st_size < 4000
+    with pytest.raises(vs.MeshFileError, match=r"amp\.3mf': the 3MF build expands "
+                       r"to 14,700,000 triangles from the 147 its objects hold; "
+                       r"vecslice expands a 3MF to at most 2,000,000 triangles"):
+        vs.load_mesh(path)
+    assert _peak_mib(lambda: _refuse(path)) < 8
+
+
+def test_expansion_counts_stay_small_numbers(tmp_path):
+    # audit s25 D05: a chain of 3,000 objects of 10 components each expands to
+    # 10**3000 placements; the counts per object were exact Python integers
+    # (about 1.2 kB each by the end of the chain, 5 MB in all)
+    depth = 3000
+    res = mesh_object(1) + "".join(
+        components_object(k + 1, [(k, None, "")] * 10) for k in range(1, depth))
+    path = write_3mf(tmp_path / "deep.3mf", model(res, [(depth, None)]))
+    with pytest.raises(vs.MeshFileError, match=r"deep\.3mf': the 3MF build expands "
+                       r"to more than 4,611,686,018,427,387,904 triangles; vecslice "
+                       r"reads at most 30,000,000"):
+        vs.load_mesh(path)
+    assert _peak_mib(lambda: _refuse(path)) < 4
