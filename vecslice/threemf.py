@@ -8,7 +8,10 @@ extension reaches objects in other model parts).
 
 Only model parts are inflated (never thumbnails or textures), each after its
 declared size and compression ratio passed :data:`MAX_MODEL_BYTES` and
-:data:`MAX_COMPRESSION_RATIO`. XML is parsed as it inflates, without network
+:data:`MAX_COMPRESSION_RATIO`, and read from the file by
+:mod:`vecslice._zipread`, which holds it to both as it inflates (to the
+compressed bytes actually consumed, whatever the zip entry declares) and names
+truncated or corrupt data. XML is parsed as it inflates, without network
 access, without entity resolution and with libxml2's size guards; a document type
 declaration is refused. No XML tree is built: ``<vertex>`` and ``<triangle>``
 elements are parsed to numbers in chunks, and their counts are checked against
@@ -34,12 +37,13 @@ import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, BinaryIO
 from urllib.parse import unquote
 
 import numpy as np
 from numpy.typing import NDArray
 
+from vecslice._zipread import InflationError, MemberDataError, inflate
 from vecslice.errors import InputValueError, MeshFileError
 from vecslice.meshfile import _numbers
 
@@ -57,6 +61,8 @@ MAX_COMPRESSION_RATIO = 200
 """Largest inflated/compressed size ratio of a model part above 1 MiB.
 
 Model XML compresses about 5 to 20 times; a zip bomb a thousand times or more.
+Checked on the sizes the zip entry declares before inflating, then on the bytes
+actually inflated and consumed, as they are (an entry may lie about its sizes).
 """
 
 MAX_INSTANCES = 1_000_000
@@ -156,7 +162,7 @@ class _Object:
 @dataclass
 class _Package:
     path: Path
-    zf: zipfile.ZipFile
+    fh: BinaryIO  # the package file: members are inflated from it directly
     members: dict[str, zipfile.ZipInfo]
     budget: int
     unit: str = "millimeter"
@@ -229,22 +235,31 @@ class _Package:
         parser = etree.XMLParser(
             target=target, resolve_entities=False, no_network=True, huge_tree=False,
             load_dtd=False, dtd_validation=False, attribute_defaults=False)
-        left = info.file_size
+        first = True
         try:
-            with self.zf.open(info) as fh:
-                while chunk := fh.read(_FEED):  # zipfile stops at the declared size
-                    if left == info.file_size and _has_doctype(chunk):
-                        self.dtd(name)
-                    left -= len(chunk)
-                    if left < 0:
-                        raise self.fail(
-                            f"3MF part '{name}' is longer than its zip entry says")
-                    self.budget -= len(chunk)
-                    parser.feed(chunk)
+            # at most the declared size, at most MAX_COMPRESSION_RATIO times the
+            # compressed bytes actually consumed: whatever the entry declares
+            for chunk in inflate(self.fh, info, max_ratio=MAX_COMPRESSION_RATIO,
+                                 ratio_from=_RATIO_FROM, chunk=_FEED):
+                if first and _has_doctype(chunk):
+                    self.dtd(name)
+                first = False
+                self.budget -= len(chunk)
+                parser.feed(chunk)
             parser.close()
         except etree.XMLSyntaxError as exc:
             raise MeshFileError(f"cannot read '{self.path}' as 3MF: XMLSyntaxError "
                                 f"in part '{name}': {exc}") from exc
+        except MemberDataError as exc:
+            raise MeshFileError(f"cannot read '{self.path}' as 3MF: part '{name}' "
+                                f"{exc}") from None
+        except InflationError as exc:
+            raise self.fail(
+                f"3MF part '{name}' inflates more than {MAX_COMPRESSION_RATIO} "
+                f"times: {exc.inflated:,} bytes from the first {exc.consumed:,} "
+                f"compressed bytes (its zip entry declares {info.compress_size:,} "
+                f"to {info.file_size:,} bytes): a zip bomb? "
+                "(vecslice.threemf.MAX_COMPRESSION_RATIO)") from None
 
     def dtd(self, name: str) -> None:
         raise self.fail(f"3MF part '{name}' has a document type declaration "
@@ -724,11 +739,18 @@ def read_3mf(path: Path, size: int) -> tuple[NDArray[np.float64], NDArray[np.int
     limits of this module; :class:`~vecslice.errors.InputValueError` for a
     vertex that is not finite (named as written, with its object and index).
     """
-    try:
-        zf = zipfile.ZipFile(path)
-    except zipfile.BadZipFile as exc:
-        raise MeshFileError(f"cannot read '{path}' as 3MF: BadZipFile: {exc}"
-                            ) from exc
+    with open(path, "rb") as fh:
+        try:
+            zf = zipfile.ZipFile(fh)
+        except zipfile.BadZipFile as exc:
+            raise MeshFileError(f"cannot read '{path}' as 3MF: BadZipFile: {exc}"
+                                ) from exc
+        return _read_package(path, fh, zf)
+
+
+def _read_package(path: Path, fh: BinaryIO, zf: zipfile.ZipFile
+                  ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """:func:`read_3mf` of the opened package ``zf`` of the file ``fh``."""
     with zf:
         members: dict[str, zipfile.ZipInfo] = {}
         for info in zf.infolist():
@@ -742,7 +764,7 @@ def read_3mf(path: Path, size: int) -> tuple[NDArray[np.float64], NDArray[np.int
                     + "; part names must differ in more than case, so which one a "
                     "reader takes would be arbitrary")
             members[key] = info
-        pkg = _Package(path, zf, members, budget=MAX_MODEL_BYTES)
+        pkg = _Package(path, fh, members, budget=MAX_MODEL_BYTES)
         root = _model_part(pkg)
         pkg.root = _norm(root)
         _parse_part(pkg, pkg.root, root, root=True)

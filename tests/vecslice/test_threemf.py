@@ -1,6 +1,7 @@
 """3MF reading (vecslice.threemf): every placement, units, limits, hostile
 packages. Every package is generated here."""
 
+import bz2
 import io
 import re
 import struct
@@ -9,6 +10,7 @@ import sys
 import tracemalloc
 import warnings
 import zipfile
+import zlib
 
 import numpy as np
 import pytest
@@ -794,3 +796,107 @@ def test_expansion_counts_stay_small_numbers(tmp_path):
                        r"reads at most 30,000,000"):
         vs.load_mesh(path)
     assert _peak_mib(lambda: _refuse(path)) < 4
+
+
+def raw_zip(path, model_data, *, method=zipfile.ZIP_DEFLATED, size=None,
+            crc=None, declared=None):
+    """A 3MF package written byte by byte, its model part's entry as given.
+
+    ``model_data`` is the model part's data as stored (deflated or not);
+    ``size``, ``crc`` and ``declared`` (compressed size) default to the truth
+    for stored data and must be given for deflated data.
+    """
+    members = [("[Content_Types].xml", 0, b"<Types/>"), ("_rels/.rels", 0,
+                                                        RELS.encode())]
+    out, central = bytearray(), bytearray()
+    for name, how, data in [*members, ("3D/3dmodel.model", method, model_data)]:
+        model_part = name == "3D/3dmodel.model"
+        usize = size if model_part and size is not None else len(data)
+        csize = declared if model_part and declared is not None else len(data)
+        check = crc if model_part and crc is not None else zlib.crc32(data)
+        n = name.encode()
+        offset = len(out)
+        out += struct.pack("<4s5H3L2H", b"PK\x03\x04", 20, 0, how, 0, 0, check,
+                           csize, usize, len(n), 0) + n + data
+        central += struct.pack("<4s6H3L5H2L", b"PK\x01\x02", 20, 20, 0, how, 0, 0,
+                               check, csize, usize, len(n), 0, 0, 0, 0, 0,
+                               offset) + n
+    out += central + struct.pack("<4s4H2LH", b"PK\x05\x06", 0, 0, 3, 3,
+                                 len(central), len(out), 0)
+    path.write_bytes(bytes(out))
+    return path
+
+
+def deflated(data):
+    c = zlib.compressobj(9, zlib.DEFLATED, -15)
+    return c.compress(data) + c.flush()
+
+
+def test_raw_zip_helper_writes_a_loadable_package(tmp_path):
+    xml = model(mesh_object(1), [(1, None)]).encode()
+    for method, data in ((zipfile.ZIP_STORED, xml), (zipfile.ZIP_DEFLATED,
+                                                     deflated(xml))):
+        path = raw_zip(tmp_path / "ok.3mf", data, method=method, size=len(xml),
+                       crc=zlib.crc32(xml))
+        assert vs.load_mesh(path).n_faces == 4
+
+
+def test_declared_compressed_size_is_not_trusted(tmp_path):
+    # audit s25 D07: the ratio was checked on the sizes the entry declares; one
+    # declaring its compressed size as large as the data inflated freely
+    xml = (model(mesh_object(1), [(1, None)]) + " " * (16 << 20)).encode()
+    data = deflated(xml)
+    assert len(xml) > 1000 * len(data)
+    path = raw_zip(tmp_path / "lie.3mf", data, size=len(xml), crc=zlib.crc32(xml),
+                   declared=len(xml))
+    with pytest.raises(vs.MeshFileError, match=r"lie\.3mf': 3MF part "
+                       r"'/3D/3dmodel\.model' inflates more than 200 times: "
+                       r"[\d,]+ bytes from the first [\d,]+ compressed bytes \(its "
+                       r"zip entry declares 16,777,\d{3} to 16,777,\d{3} bytes\): a "
+                       r"zip bomb\? \(vecslice\.threemf\.MAX_COMPRESSION_RATIO\)"):
+        vs.load_mesh(path)
+    assert _peak_mib(lambda: _refuse(path)) < 8
+
+
+DAMAGED_DATA = [
+    # audit s25 D07: cut deflate data ended in "EOFError: " (no message)
+    ("cut deflate data", lambda x: dict(model_data=deflated(x)[:-40], size=len(x),
+                                        crc=zlib.crc32(x)),
+     r"part '/3D/3dmodel\.model' is truncated: its data ends after [\d,]+ of the "
+     r"[\d,]+ bytes its zip entry declares"),
+    ("stored data short of its size", lambda x: dict(
+        model_data=x[:100], method=zipfile.ZIP_STORED, size=len(x),
+        crc=zlib.crc32(x)),
+     r"part '/3D/3dmodel\.model' is truncated: its data ends after 100 of the "
+     r"[\d,]+ bytes"),
+    ("compressed size beyond the file", lambda x: dict(
+        model_data=deflated(x)[:60], declared=10**6, size=len(x),
+        crc=zlib.crc32(x)),
+     r"part '/3D/3dmodel\.model' is (truncated|corrupt after [\d,]+ bytes)"),
+    ("corrupt deflate data", lambda x: dict(
+        model_data=b"\xff" * 8 + deflated(x)[8:], size=len(x), crc=zlib.crc32(x)),
+     r"part '/3D/3dmodel\.model' is corrupt after 0 bytes: Error -3 while "
+     r"decompressing data"),
+    ("wrong CRC", lambda x: dict(model_data=deflated(x), size=len(x),
+                                 crc=zlib.crc32(x) ^ 1),
+     r"part '/3D/3dmodel\.model' is corrupt: its CRC-32 is [0-9a-f]{8}, its zip "
+     r"entry says [0-9a-f]{8}"),
+    ("longer than declared", lambda x: dict(model_data=deflated(x), size=len(x) - 1,
+                                            crc=zlib.crc32(x)),
+     r"part '/3D/3dmodel\.model' is longer than its zip entry says \([\d,]+ bytes\)"),
+    ("bzip2", lambda x: dict(model_data=bz2.compress(x), method=zipfile.ZIP_BZIP2,
+                             size=len(x), crc=zlib.crc32(x)),
+     r"part '/3D/3dmodel\.model' is compressed with zip method 12; Open Packaging "
+     r"Conventions packages \(3MF\) are stored or deflated"),
+]
+
+
+@pytest.mark.parametrize(("label", "edit", "match"), DAMAGED_DATA,
+                         ids=[c[0] for c in DAMAGED_DATA])
+def test_damaged_zip_data_is_named(tmp_path, label, edit, match):
+    xml = model(mesh_object(1), [(1, None)]).encode()
+    path = raw_zip(tmp_path / "d.3mf", **edit(xml))
+    with pytest.raises(vs.MeshFileError, match=r"^cannot read '.*d\.3mf' as 3MF: "
+                       + match) as info:
+        vs.load_mesh(path)
+    assert info.value.__cause__ is None
