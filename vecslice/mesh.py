@@ -660,11 +660,15 @@ def load_mesh(
     :data:`vecslice.meshfile.MAX_TRIANGLES` triangles (100 million; also for
     counts a header announces); for 3MF at most
     :data:`vecslice.threemf.MAX_MODEL_BYTES` (1 GiB) of model XML, inflated no
-    more than :data:`vecslice.threemf.MAX_COMPRESSION_RATIO` (200) times, at most
+    more than :data:`vecslice.threemf.MAX_COMPRESSION_RATIO` (200) times the
+    compressed bytes actually read, at most
     :data:`vecslice.threemf.MAX_BUILD_TRIANGLES` triangles and
     :data:`vecslice.threemf.MAX_BUILD_VERTICES` vertices (30 million each, also
-    after expanding components) and :data:`vecslice.threemf.MAX_INSTANCES` (a
-    million) object placements.
+    after expanding components), at most
+    :data:`vecslice.threemf.MAX_EXPANDED_TRIANGLES` (2 million) triangles from
+    placements that multiply fewer held, :data:`vecslice.threemf.MAX_OBJECTS`
+    (100,000) objects and :data:`vecslice.threemf.MAX_INSTANCES` (a million)
+    build items and components, and as many object placements.
 
     Examples
     --------
