@@ -165,8 +165,10 @@ class _ModelReader(_Target):
 
     ``<vertex>`` and ``<triangle>`` attributes are kept as text for at most
     :data:`_CHUNK` elements, then parsed to numbers; the counts are checked
-    against :data:`MAX_BUILD_VERTICES` and :data:`MAX_BUILD_TRIANGLES` as they
-    grow, so a hostile part is refused before its numbers cost memory.
+    against :data:`vecslice.threemf.MAX_BUILD_VERTICES` and
+    :data:`~vecslice.threemf.MAX_BUILD_TRIANGLES` as they grow, and objects
+    against :data:`~vecslice.threemf.MAX_OBJECTS` (the values in ``pkg.limits``),
+    so a hostile part is refused before its numbers cost memory.
     """
 
     def __init__(self, pkg: _Package, name: str, *, key: str, root: bool) -> None:
