@@ -204,18 +204,26 @@ def _utf16_hint(data: bytes) -> str:
     return ""
 
 
-def _stl_hint(data: bytes) -> str:
-    """Why bytes are no STL, guessed from the first 512."""
+def _no_stl(path: Path, data: bytes) -> MeshFileError:
+    """Why ``data`` (the whole file) is no STL.
+
+    UTF-16 text, text without a complete ``solid ... endsolid`` block, fewer
+    bytes than a binary STL's header, or a binary STL whose triangle count does
+    not match its size (named as such: it was reported as holding no triangles).
+    """
     size = len(data)
-    if _utf16_hint(data):
-        return _utf16_hint(data)
-    if not _TEXT.search(data[:512]):
-        return " (ASCII STL without a complete 'solid ... endsolid' block: truncated?)"
-    if size < 84:
-        return f" (binary STL needs an 84-byte header; the file has {size} bytes)"
+    hint = _utf16_hint(data)
+    if not hint and not _TEXT.search(data[:512]):
+        hint = " (ASCII STL without a complete 'solid ... endsolid' block: truncated?)"
+    elif not hint and size < 84:
+        hint = f" (binary STL needs an 84-byte header; the file has {size} bytes)"
+    if hint:
+        return MeshFileError(f"'{path}' holds no triangles{hint}")
     n = struct.unpack_from("<I", data, 80)[0]
-    return (f" (binary STL header announces {n} triangles = {84 + 50 * n} bytes; "
-            f"the file has {size} bytes: truncated or corrupt)")
+    return MeshFileError(
+        f"'{path}' is truncated or corrupt: its binary STL header announces {n:,} "
+        f"triangles, which take {84 + 50 * n:,} bytes (84 + 50 each), but the file "
+        f"has {size:,} bytes")
 
 
 def _read_stl(path: Path, size: int) -> Arrays:
@@ -232,7 +240,7 @@ def _read_stl(path: Path, size: int) -> Arrays:
         fh.seek(0)
         data = fh.read()
     if data.lstrip()[:5].lower() != b"solid":
-        raise MeshFileError(f"'{path}' holds no triangles{_stl_hint(data)}")
+        raise _no_stl(path, data)
     return _read_stl_ascii(path, data)
 
 
@@ -244,7 +252,7 @@ def _read_stl_ascii(path: Path, data: bytes) -> Arrays:
     gaps = parts[0::4]
     del parts[0::4]  # the numbers are left
     if not parts or body.rfind(b"endsolid") < body.rfind(b"vertex"):
-        raise MeshFileError(f"'{path}' holds no triangles{_stl_hint(data)}")
+        raise _no_stl(path, data)
     per_facet = _stl_facet_sizes(gaps)
     n_loops = per_facet.shape[0] - 1
     if len(gaps) - 1 != 3 * n_loops:

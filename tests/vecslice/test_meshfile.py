@@ -122,8 +122,9 @@ def binary_stl(n_triangles, claimed=None):
 
 def test_binary_stl_claiming_4e9_triangles(tmp_path):
     p = write(tmp_path, "claim.stl", binary_stl(2, claimed=4_000_000_000))
-    refused(p, r"claim\.stl' holds no triangles \(binary STL header announces "
-            r"4000000000 triangles = 200000000084 bytes; the file has 184 bytes")
+    refused(p, r"claim\.stl' is truncated or corrupt: its binary STL header "
+            r"announces 4,000,000,000 triangles, which take 200,000,000,084 bytes "
+            r"\(84 \+ 50 each\), but the file has 184 bytes$")
     assert _peak_mib(lambda: _swallow(vs.load_mesh, p)) < 4
 
 
@@ -645,3 +646,16 @@ def test_obj_line_ends_cr_crlf_and_lf_alike(tmp_path, eol):
 def test_obj_token_bytes_are_shown_as_they_are(tmp_path, text, match):
     # audit D15: bytes that are not UTF-8 were shown as Latin-1 ('é' for \xe9)
     refused(write(tmp_path, "t.obj", text), r"t\.obj' is corrupt: " + match)
+
+
+@pytest.mark.parametrize(("n", "claimed", "extra"), [(3, 4, b""), (3, 2, b""),
+                                                      (3, 3, b"\0")])
+def test_binary_stl_count_that_does_not_match_the_size_is_named(tmp_path, n, claimed,
+                                                                extra):
+    # audit D17: reported as "holds no triangles"
+    data = binary_stl(n, claimed=claimed) + extra
+    err = refused(write(tmp_path, "m.stl", data), r"m\.stl' is truncated or corrupt: "
+                  rf"its binary STL header announces {claimed} triangles, which take "
+                  rf"{84 + 50 * claimed} bytes \(84 \+ 50 each\), but the file has "
+                  rf"{len(data)} bytes$")
+    assert "holds no triangles" not in str(err)
