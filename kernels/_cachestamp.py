@@ -10,11 +10,15 @@ kernel was seen to change another kernel's results in the same process.
 sources of every kernel module (and the numba and Python versions) and, when the
 hash differs from the one stored beside the cache, removes the cached kernels
 (``*.nbi``, ``*.nbc``) there before any is loaded; they are compiled again.
+
+Where numba finds no writable cache directory at all, :func:`check` says so
+(a warning) and the kernels are compiled without a cache (see :mod:`._jit`).
 """
 
 import hashlib
 import os
 import sys
+import warnings
 from pathlib import Path
 
 STAMP = "vecslice-kernels.stamp"
@@ -60,17 +64,34 @@ def _probe():  # a cached function of this directory: where numba caches
 
 
 def check():
-    """:func:`sync` for the cache numba uses for this directory's kernels."""
+    """:func:`sync` for the cache numba uses for this directory's kernels.
+
+    Returns whether numba can cache the kernels at all. It cannot when none of
+    its cache directories is writable (``NUMBA_CACHE_DIR``, the ``__pycache__``
+    beside the kernels, the user's cache directory: a read-only install run by
+    a user whose home is not writable); ``cache=True`` then raises numba's
+    "no locator available" error, so the kernels must be compiled without it,
+    on every run. A warning says so, once.
+    """
     from numba import config, njit
 
     if config.DISABLE_JIT:
-        return
+        return True
     try:
         cache_dir = njit(cache=True)(_probe)._cache._cache_path
+    except RuntimeError as exc:  # "cannot cache function ...: no locator available"
+        warnings.warn(
+            "vecslice: numba has no writable cache directory for its kernels "
+            f"(NUMBA_CACHE_DIR, {Path(__file__).parent / '__pycache__'}, the "
+            "user's cache directory), so they are compiled again on every run; "
+            "set NUMBA_CACHE_DIR to a writable directory to keep them. (numba: "
+            f"{exc})", RuntimeWarning, stacklevel=2)
+        return False
     except AttributeError:  # another numba's internals: leave the cache alone
-        return
+        return True
     try:
         os.makedirs(cache_dir, exist_ok=True)
     except OSError:
-        return
+        return True
     sync(cache_dir, sources_digest(Path(__file__).parent))
+    return True

@@ -17,9 +17,12 @@ from numba import njit
 
 from . import _cachestamp
 
-__all__ = ["compile_listeners", "cost_chunks", "even_chunks", "kernel", "run_serial"]
+__all__ = [
+    "CACHED", "compile_listeners", "cost_chunks", "even_chunks", "kernel", "run_serial",
+]
 
-_cachestamp.check()  # before any kernel is loaded from numba's cache
+CACHED = _cachestamp.check()  # before any kernel is loaded from numba's cache
+"""Whether kernels are cached on disk (False: numba has no writable cache directory)."""
 
 _lock = threading.RLock()
 
@@ -39,6 +42,8 @@ def _notify(event, name, seconds):
 
 def kernel(signature=None, **options):
     """Decorate a kernel: ``njit(cache=True, nogil=True, **options)``, compiled lazily.
+
+    ``cache=False`` where numba has no writable cache directory (:data:`CACHED`).
 
     Parameters
     ----------
@@ -61,7 +66,7 @@ def kernel(signature=None, **options):
     options.setdefault("_nrt", True)
 
     def decorate(fn):
-        disp = njit(cache=True, nogil=True, **options)(fn)
+        disp = njit(cache=CACHED, nogil=True, **options)(fn)
         if signature is None or not hasattr(disp, "get_call_template"):
             # inline helpers; or NUMBA_DISABLE_JIT=1, where njit returns the plain
             # Python function (coverage runs measure kernel bodies as Python lines)

@@ -138,3 +138,16 @@ def record_starts(data: bytes, start: int, n_records: int, props, big_endian: bo
             return starts, r
         starts.append(pos)
     return starts, n_records
+
+
+def boxes_inside(boxes, live, queries, start: int):
+    """The first query from ``start`` with live boxes inside; see kernels/boxes.py."""
+    for k in range(start, len(queries)):
+        q = [int(x) for x in queries[k]]
+        rows = [r for r in range(len(boxes)) if live[r]
+                and all(q[c] <= int(boxes[r][c]) for c in range(3))
+                and all(int(boxes[r][c]) <= q[c] for c in range(3, 6))
+                and [int(x) for x in boxes[r]] != q]
+        if rows:
+            return k, rows
+    return len(queries), []

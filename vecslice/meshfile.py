@@ -204,18 +204,26 @@ def _utf16_hint(data: bytes) -> str:
     return ""
 
 
-def _stl_hint(data: bytes) -> str:
-    """Why bytes are no STL, guessed from the first 512."""
+def _no_stl(path: Path, data: bytes) -> MeshFileError:
+    """Why ``data`` (the whole file) is no STL.
+
+    UTF-16 text, text without a complete ``solid ... endsolid`` block, fewer
+    bytes than a binary STL's header, or a binary STL whose triangle count does
+    not match its size (named as such: it was reported as holding no triangles).
+    """
     size = len(data)
-    if _utf16_hint(data):
-        return _utf16_hint(data)
-    if not _TEXT.search(data[:512]):
-        return " (ASCII STL without a complete 'solid ... endsolid' block: truncated?)"
-    if size < 84:
-        return f" (binary STL needs an 84-byte header; the file has {size} bytes)"
+    hint = _utf16_hint(data)
+    if not hint and not _TEXT.search(data[:512]):
+        hint = " (ASCII STL without a complete 'solid ... endsolid' block: truncated?)"
+    elif not hint and size < 84:
+        hint = f" (binary STL needs an 84-byte header; the file has {size} bytes)"
+    if hint:
+        return MeshFileError(f"'{path}' holds no triangles{hint}")
     n = struct.unpack_from("<I", data, 80)[0]
-    return (f" (binary STL header announces {n} triangles = {84 + 50 * n} bytes; "
-            f"the file has {size} bytes: truncated or corrupt)")
+    return MeshFileError(
+        f"'{path}' is truncated or corrupt: its binary STL header announces {n:,} "
+        f"triangles, which take {84 + 50 * n:,} bytes (84 + 50 each), but the file "
+        f"has {size:,} bytes")
 
 
 def _read_stl(path: Path, size: int) -> Arrays:
@@ -232,7 +240,7 @@ def _read_stl(path: Path, size: int) -> Arrays:
         fh.seek(0)
         data = fh.read()
     if data.lstrip()[:5].lower() != b"solid":
-        raise MeshFileError(f"'{path}' holds no triangles{_stl_hint(data)}")
+        raise _no_stl(path, data)
     return _read_stl_ascii(path, data)
 
 
@@ -244,7 +252,7 @@ def _read_stl_ascii(path: Path, data: bytes) -> Arrays:
     gaps = parts[0::4]
     del parts[0::4]  # the numbers are left
     if not parts or body.rfind(b"endsolid") < body.rfind(b"vertex"):
-        raise MeshFileError(f"'{path}' holds no triangles{_stl_hint(data)}")
+        raise _no_stl(path, data)
     per_facet = _stl_facet_sizes(gaps)
     n_loops = per_facet.shape[0] - 1
     if len(gaps) - 1 != 3 * n_loops:
@@ -279,6 +287,18 @@ def _stl_facet_sizes(gaps: list[bytes]) -> NDArray[np.int64]:
     return np.bincount(loops_before[:-1], minlength=at.shape[0] + 1)
 
 
+def _quoted(token: bytes) -> str:
+    r"""A token of a file, quoted for a message: as text if it is UTF-8, else as bytes.
+
+    ``'é'`` for UTF-8 ``\xc3\xa9``, ``b'\xe9'`` for a byte that is not UTF-8
+    (decoding it as Latin-1 showed another character than the file holds).
+    """
+    try:
+        return repr(token.decode("utf-8"))
+    except UnicodeDecodeError:
+        return repr(token)
+
+
 def _floats(path: Path, tokens: list[bytes], what: str) -> NDArray[np.float64]:
     """(N, 3) float64 from 3N byte strings; names the first bad number.
 
@@ -299,7 +319,7 @@ def _floats(path: Path, tokens: list[bytes], what: str) -> NDArray[np.float64]:
                 except ValueError:
                     raise MeshFileError(
                         f"'{path}' is corrupt: {what} {k + 1} has "
-                        f"{tok.decode('latin-1')!r} where a number should be"
+                        f"{_quoted(tok)} where a number should be"
                     ) from None
         raise
 
@@ -312,6 +332,7 @@ _OBJ_V = re.compile(rb"^[ \t]*v[ \t]+([^\s#]+[ \t]+[^\s#]+[ \t]+[^\s#]+)", re.M)
 _OBJ_V_LINE = re.compile(rb"^[ \t]*v[ \t]", re.M)
 _OBJ_F = re.compile(rb"^[ \t]*f[ \t]+([^\r\n#]*)", re.M)
 _OBJ_SLASH = re.compile(rb"/\S*")  # to the next C whitespace, as tokens split
+_OBJ_LEADING_SLASH = re.compile(rb"(?<!\S)/\S*")  # a corner without its vertex
 _INT = re.compile(rb"[+-]?\d{1,18}")
 
 
@@ -357,8 +378,10 @@ def _read_obj(path: Path, size: int) -> Arrays:
     parsing: no loop over lines in Python.
     """
     data = path.read_bytes()
-    if b"\\\n" in data or b"\\\r\n" in data:  # line continuations
-        data = data.replace(b"\\\r\n", b" ").replace(b"\\\n", b" ")
+    if b"\r" in data:  # lines end at CR LF, CR (old Mac) or LF alike
+        data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    if b"\\\n" in data:  # line continuations
+        data = data.replace(b"\\\n", b" ")
     rows = _OBJ_V.findall(data)
     if len(rows) != len(_OBJ_V_LINE.findall(data)):
         good = {m.start() for m in _OBJ_V.finditer(data)}
@@ -380,6 +403,13 @@ def _read_obj(path: Path, size: int) -> Arrays:
         raise _too_many(path, len(bodies), "faces")
     body = b"\n".join(bodies)
     if b"/" in body:
+        lone = _OBJ_LEADING_SLASH.search(body)
+        if lone is not None:  # numpy would not see it, once the suffixes are gone
+            k = body.count(b"\n", 0, lone.start())
+            raise MeshFileError(
+                f"'{path}' is corrupt: {_obj_face(data, k)} has corner "
+                f"{_quoted(lone.group())}; a corner starts with its vertex index (v, "
+                "v/vt, v//vn or v/vt/vn)")
         body = _OBJ_SLASH.sub(b"", body)
     # tokens per face line: a token starts where a non-blank follows a blank
     c = np.frombuffer(body, dtype=np.uint8)
@@ -391,6 +421,9 @@ def _read_obj(path: Path, size: int) -> Arrays:
         k = int(short[0])
         raise MeshFileError(f"'{path}' is corrupt: {_obj_face(data, k)} has "
                             f"{counts[k]} vertices; a face needs at least 3")
+    n_tri = int(counts.sum()) - 2 * counts.shape[0]  # fans, before they are made
+    if n_tri > MAX_TRIANGLES:
+        raise _too_many(path, n_tri)
     idx = _numbers(body, np.int64, int(counts.sum()))
     face_of = np.repeat(np.arange(len(bodies)), counts)
     if idx is None:
@@ -398,7 +431,7 @@ def _read_obj(path: Path, size: int) -> Arrays:
         k = next((i for i, t in enumerate(toks) if not _INT.fullmatch(t)), 0)
         raise MeshFileError(
             f"'{path}' is corrupt: {_obj_face(data, int(face_of[k]))} has vertex "
-            f"index {toks[k].decode('latin-1')!r}; expected an integer")
+            f"index {_quoted(toks[k])}; expected an integer")
     res = idx - 1
     neg = idx < 0
     if neg.any():  # relative: vertices defined before the face line

@@ -219,56 +219,54 @@ def _samples(v: NDArray[np.int64]) -> NDArray[np.int64]:
     return np.concatenate([v[first : first + 1], v[idx]])
 
 
-def _box_pairs(
-    lo: NDArray[np.int64], hi: NDArray[np.int64]
-) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Pairs ``(a, b)``, a != b, with box ``a`` inside box ``b`` (bounds included).
+_LEAF = 8  # boxes per leaf of a _BoxTree, about
 
-    A loose grid keeps this output-sensitive: box ``b`` is filed under the cells
-    of size ``2**level`` (its extent rounded up to a power of two) that it
-    touches, at most 8; a box inside ``b`` has its lower corner in one of them
-    and a level no higher. Cell keys are hashed into int64 (wrapping); a
-    collision only adds a candidate, which the exact box test then drops.
+
+class _BoxTree:
+    """Boxes in a balanced binary tree, for the live boxes inside a query box.
+
+    The layout :func:`vecslice._kernels.boxes.boxes_inside` walks: each node is
+    split at the median of the coordinate (of the 6 of ``lo`` and ``hi``) its
+    boxes spread most in. Boxes are killed (:meth:`kill`) once they need no
+    more queries, and the subtrees without live boxes are then skipped.
     """
-    ext = np.maximum((hi - lo).max(axis=1), 1)
-    level = np.ceil(np.log2(ext.astype(np.float64))).astype(np.int64)
-    off = lo + 2**30, hi + 2**30  # non-negative
 
-    def key(lev, c):  # type: ignore[no-untyped-def]
-        with np.errstate(over="ignore"):
-            return ((lev * 1_000_003 + c[:, 0]) * 998_244_353 + c[:, 1]) \
-                * 1_000_000_007 + c[:, 2]
+    def __init__(self, boxes: NDArray[np.int64]) -> None:
+        n = boxes.shape[0]
+        self.depth = depth = max(n // _LEAF, 1).bit_length() - 1  # 2**depth <= n
+        rows = np.arange(n, dtype=np.int64)
+        for d in range(depth):  # node j of level d: rows j * n >> d ..
+            cut = (np.arange((1 << d) + 1, dtype=np.int64) * n) >> d
+            b = boxes[rows]
+            spread = np.maximum.reduceat(b, cut[:-1]) - np.minimum.reduceat(b, cut[:-1])
+            node = np.repeat(np.arange(1 << d), np.diff(cut))
+            along = b[np.arange(n), np.argmax(spread, axis=1)[node]]
+            rows = rows[np.lexsort((along, node))]
+        self.rows = rows  # tree position -> box
+        self.boxes = np.ascontiguousarray(boxes[rows])
+        cut = (np.arange((1 << depth) + 1, dtype=np.int64) * n) >> depth
+        levels = [np.concatenate([np.maximum.reduceat(self.boxes[:, :3], cut[:-1]),
+                                  np.minimum.reduceat(self.boxes[:, 3:], cut[:-1])],
+                                 axis=1)]
+        counts = [np.diff(cut)]
+        for _ in range(depth):  # parents from pairs of children, up to the root
+            b, c = levels[0], counts[0]
+            levels.insert(0, np.concatenate([np.maximum(b[0::2, :3], b[1::2, :3]),
+                                             np.minimum(b[0::2, 3:], b[1::2, 3:])],
+                                            axis=1))
+            counts.insert(0, c[0::2] + c[1::2])
+        self.bounds = np.ascontiguousarray(np.concatenate(levels))
+        self.live_below = np.concatenate(counts)
+        self.live = np.ones(n, dtype=bool)
+        self.n = n
 
-    keys, owner = [], []
-    for corner in range(8):  # the cells of the 8 box corners (often the same)
-        pick = [(corner >> d) & 1 for d in range(3)]
-        c = np.stack([np.where(pick[d], off[1][:, d], off[0][:, d]) >> level
-                      for d in range(3)], axis=1)
-        keys.append(key(level, c))
-        owner.append(np.arange(lo.shape[0]))
-    k, o = np.concatenate(keys), np.concatenate(owner)
-    order = np.lexsort((o, k))
-    k, o = k[order], o[order]
-    dup = np.zeros(k.shape[0], dtype=bool)
-    dup[1:] = (k[1:] == k[:-1]) & (o[1:] == o[:-1])
-    k, o = k[~dup], o[~dup]
-    pa, pb = [], []
-    for lev in np.unique(level):
-        q = np.flatnonzero(level <= lev)
-        qk = key(np.full(q.shape[0], lev), off[0][q] >> lev)
-        left = np.searchsorted(k, qk, side="left")
-        right = np.searchsorted(k, qk, side="right")
-        cnt = right - left
-        a = np.repeat(q, cnt)
-        pos = np.arange(a.shape[0]) - np.repeat(np.cumsum(cnt) - cnt, cnt) \
-            + np.repeat(left, cnt)
-        b = o[pos]
-        keep = (level[b] == lev) & (a != b)
-        pa.append(a[keep])
-        pb.append(b[keep])
-    a, b = np.concatenate(pa), np.concatenate(pb)
-    ok = ((lo[a] >= lo[b]) & (hi[a] <= hi[b])).all(axis=1)
-    return a[ok], b[ok]
+    def kill(self, at: NDArray[np.int64]) -> None:
+        """Mark the boxes at tree positions ``at`` (distinct, live) dead."""
+        self.live[at] = False
+        depth = self.depth
+        leaf = (((at + 1) << depth) - 1) // self.n  # position j * n >> depth ..
+        for d in range(depth + 1):
+            np.subtract.at(self.live_below, (1 << d) - 1 + (leaf >> (depth - d)), 1)
 
 
 def _parents(
@@ -279,8 +277,18 @@ def _parents(
 ) -> NDArray[np.int64]:
     """The smallest closed shell containing each closed shell (-1: none, or open).
 
-    See :func:`nesting_depth` for what "containing" means.
+    See :func:`nesting_depth` for what "containing" means. The candidates for
+    holding shell ``a`` are the shells whose bounding box holds a's (and is not
+    the same box), tried smallest box first (by volume; then by the power of
+    two at or above the box's largest extent, then by shell number), and a's
+    parent is the first that holds it. The containers are gone through in that
+    order, each tested at once against every shell inside its box that no
+    smaller container holds yet (found through a :class:`_BoxTree`): shells
+    nested ``n`` deep cost ``n`` tests, not ``n**2`` (8,000 nested tetrahedra
+    took 218 s and 3.6 GB when every nested pair of boxes was tested).
     """
+    from vecslice._kernels.boxes import boxes_inside
+
     n = closed.shape[0]
     parent_of = np.full(n, -1, dtype=np.int64)
     ids = np.flatnonzero(closed)
@@ -292,42 +300,48 @@ def _parents(
     # every label 0 .. S-1 has faces, so each reduceat segment is one shell
     lo = np.minimum.reduceat(corner.min(axis=1), starts[:-1])[ids]
     hi = np.maximum.reduceat(corner.max(axis=1), starts[:-1])[ids]
-    pa, pb = _box_pairs(lo, hi)
-    same = ((lo[pa] == lo[pb]) & (hi[pa] == hi[pb])).all(axis=1)
-    pa, pb = pa[~same], pb[~same]
-    if pa.shape[0] == 0:
-        return parent_of
     size = (hi - lo).astype(np.float64).prod(axis=1)
-    by = np.lexsort((size[pb], pa))  # for each shell, smallest container first
-    pa, pb = pa[by], pb[by]
-    # every candidate pair is tested, a container's pairs in one call, and first
-    # with one sample each: a pair whose first sample is outside fails whatever
-    # the others (400 concentric frames took 46 s, one pair and 16 samples at
-    # a time)
-    inner = np.unique(pa)
-    samples = dict(zip(inner.tolist(), (_samples(vertices[np.unique(
-        faces[order[starts[ids[i]] : starts[ids[i] + 1]]])]) for i in inner),
-        strict=True))
-    holds = np.zeros(pa.shape[0], dtype=bool)
-    by_container = np.argsort(pb, kind="stable")
-    for group in np.split(by_container, np.flatnonzero(np.diff(pb[by_container])) + 1):
-        b = ids[pb[group[0]]]
+    ext = np.maximum((hi - lo).max(axis=1), 1)
+    level = np.ceil(np.log2(ext.astype(np.float64))).astype(np.int64)
+    by = np.lexsort((np.arange(ids.shape[0]), level, size))  # smallest box first
+    boxes = np.concatenate([lo, hi], axis=1)
+    tree = _BoxTree(boxes)
+    queries = np.ascontiguousarray(boxes[by])
+    parent = np.full(ids.shape[0], -1, dtype=np.int64)
+    samples: dict[int, NDArray[np.int64]] = {}
+
+    def sample(i: int) -> NDArray[np.int64]:
+        if i not in samples:
+            s = ids[i]
+            samples[i] = _samples(vertices[np.unique(faces[order[starts[s]:
+                                                                  starts[s + 1]]])])
+        return samples[i]
+
+    k = 0
+    while True:
+        k, at = boxes_inside(tree.boxes, tree.bounds, tree.live_below, tree.live,
+                             queries, k)
+        if k == by.shape[0]:
+            break
+        b = ids[by[k]]
         tri = corner[starts[b] : starts[b + 1]]
-        r0 = points_in_shell(np.stack([samples[i][0] for i in pa[group].tolist()]), tri)
-        group = group[r0 != 0]
-        if not group.size:
-            continue
-        rest = [samples[i][1:] for i in pa[group].tolist()]
-        r = points_in_shell(np.concatenate(rest), tri)
-        at = np.cumsum([0, *(len(x) for x in rest)])[:-1]
-        has = np.array([len(x) > 0 for x in rest])
-        inside = (r0[r0 != 0] == 1) | (has & np.logical_or.reduceat(r == 1, at))
-        outside = has & np.logical_or.reduceat(r == 0, at)
-        holds[group] = inside & ~outside
-    # each shell's parent: its first candidate (the smallest) that holds it
-    first = np.full(ids.shape[0], pa.shape[0], dtype=np.int64)
-    np.minimum.at(first, pa[holds], np.flatnonzero(holds))
-    parent = np.where(first < pa.shape[0], pb[np.minimum(first, pa.shape[0] - 1)], -1)
+        inner = tree.rows[at]
+        # first with one sample each: a shell whose first sample is outside is
+        # not held whatever the others (400 concentric frames took 46 s, one pair
+        # and 16 samples at a time)
+        r0 = points_in_shell(np.stack([sample(i)[0] for i in inner.tolist()]), tri)
+        near = np.flatnonzero(r0 != 0)
+        if near.size:
+            rest = [sample(i)[1:] for i in inner[near].tolist()]
+            r = points_in_shell(np.concatenate(rest), tri)
+            first = np.cumsum([0, *(len(x) for x in rest)])[:-1]
+            has = np.array([len(x) > 0 for x in rest])
+            inside = (r0[near] == 1) | (has & np.logical_or.reduceat(r == 1, first))
+            outside = has & np.logical_or.reduceat(r == 0, first)
+            held = near[inside & ~outside]
+            parent[inner[held]] = by[k]
+            tree.kill(at[held])
+        k += 1
     parent_of[ids] = np.where(parent >= 0, ids[np.maximum(parent, 0)], -1)
     return parent_of
 

@@ -92,7 +92,7 @@ def _body_numbers(path: Path, body: bytes, n: int,
         at, tok = _first_non_number(body)
         line = first_line + body.count(b"\n", 0, at) + 1
         raise MeshFileError(
-            f"'{path}' is corrupt: {tok.decode('latin-1')[:40]!r} where a number "
+            f"'{path}' is corrupt: {_mf()._quoted(tok[:40])} where a number "
             f"should be (line {line})")
     return vals
 
@@ -236,29 +236,8 @@ def _ply_parse(path: Path, data: bytes) -> _Header:
                             f"header{_mf()._utf16_hint(data)}")
     # lines end at line feeds only, as in the body (not at \f, \v or \x85)
     lines = data[: end.end()].decode("latin-1").split("\n")[:-1]
-    fmt = next((_words(ln) for ln in lines if ln.startswith("format")), ["", ""])
-    fmt += [""] * (2 - len(fmt))
-    binary = fmt[1].startswith("binary")
-    if binary and fmt[1] not in _PLY_ORDER:
-        raise MeshFileError(f"'{path}' is corrupt: unknown PLY format {fmt[1]!r}; "
-                            "expected ascii, binary_little_endian or "
-                            "binary_big_endian")
-    need, elements = 0, []
-    for ln in lines:
-        w = _words(ln)
-        if w[:1] == ["element"] and len(w) == 3:
-            if not _COUNT.fullmatch(w[2]):
-                raise MeshFileError(f"'{path}' is corrupt: PLY header line "
-                                    f"{_shown(ln)}: the count must be a whole "
-                                    "number below 10**18")
-            elements.append(_Element(w[1], int(w[2])))
-        elif w[:1] == ["property"] and elements and len(w) >= 3:
-            is_list = w[1] == "list" and len(w) == 5
-            if not set(w[2:4] if is_list else w[1:2]) <= _PLY_SIZES.keys():
-                raise MeshFileError(f"'{path}' is corrupt: PLY header line "
-                                    f"{_shown(ln)} has an unknown property type")
-            elements[-1].props.append((w[4], w[2], w[3]) if is_list
-                                      else (w[2], None, w[1]))
+    fmt, elements = _ply_lines(path, lines)
+    binary = fmt in _PLY_ORDER
     face = next((e for e in elements if e.name == "face"), None)
     corners = _corners(face) if face is not None and face.count else None
     for el in elements:
@@ -271,6 +250,7 @@ def _ply_parse(path: Path, data: bytes) -> _Header:
             if count is not None and count not in _PLY_INTS:
                 raise MeshFileError(f"'{path}' is corrupt: PLY list property {name!r} "
                                     f"must have an integer count type; got {count!r}")
+    need = 0
     for el in elements:
         if el.name == "vertex" and el.count > 3 * _mf().MAX_TRIANGLES:
             raise _mf()._too_many(path, el.count, "vertices")
@@ -289,7 +269,68 @@ def _ply_parse(path: Path, data: bytes) -> _Header:
             + " and ".join(listed) + " elements"
             + f" (at least {need:,} bytes), but {have:,} bytes follow the header"
         )
-    return _Header(end.end(), len(lines), fmt[1], elements, face, corners)
+    return _Header(end.end(), len(lines), fmt, elements, face, corners)
+
+
+_PLY_EXPECTED = {
+    "format": "'format ascii|binary_little_endian|binary_big_endian VERSION'",
+    "element": "'element NAME COUNT'",
+    "property": "'property TYPE NAME' or 'property list COUNT_TYPE VALUE_TYPE NAME'",
+}
+
+
+def _ply_lines(path: Path, lines: list[str]) -> tuple[str, list[_Element]]:
+    """The format and elements the lines of a PLY header declare (``ply`` .. end).
+
+    Every line is ``format``, ``element``, ``property``, ``comment`` or
+    ``obj_info`` (the last two hold anything), or blank; any other line, or one
+    of the first three with other words than its syntax, is refused by number
+    (such lines were skipped: a misspelt property left a column unread).
+    """
+    fmt, elements = "", []
+
+    def bad(i: int, why: str) -> MeshFileError:
+        return MeshFileError(f"'{path}' is corrupt: PLY header line "
+                             f"{_shown(lines[i])} (line {i + 1}): {why}")
+
+    if _words(lines[0]) != ["ply"]:
+        raise bad(0, "the first line is 'ply'")
+    for i, ln in enumerate(lines[1:-1], 1):
+        w = _words(ln)
+        if not w or w[0] in ("comment", "obj_info"):
+            continue
+        if w[0] not in _PLY_EXPECTED:
+            raise bad(i, "expected 'format', 'element', 'property', 'comment' or "
+                      "'obj_info'")
+        if len(w) != (5 if w[0] == "property" and w[1:2] == ["list"] else 3):
+            raise bad(i, f"expected {_PLY_EXPECTED[w[0]]}")
+        if w[0] == "format":
+            if fmt:
+                raise bad(i, "a second 'format' line")
+            if w[1] != "ascii" and w[1] not in _PLY_ORDER:
+                raise MeshFileError(f"'{path}' is corrupt: unknown PLY format "
+                                    f"{w[1]!r}; expected ascii, binary_little_endian "
+                                    "or binary_big_endian")
+            fmt = w[1]
+        elif w[0] == "element":
+            if not _COUNT.fullmatch(w[2]):
+                raise MeshFileError(f"'{path}' is corrupt: PLY header line "
+                                    f"{_shown(ln)}: the count must be a whole "
+                                    "number below 10**18")
+            elements.append(_Element(w[1], int(w[2])))
+        else:
+            if not elements:
+                raise bad(i, "a property before any element")
+            is_list = len(w) == 5
+            if not set(w[2:4] if is_list else w[1:2]) <= _PLY_SIZES.keys():
+                raise MeshFileError(f"'{path}' is corrupt: PLY header line "
+                                    f"{_shown(ln)} has an unknown property type")
+            elements[-1].props.append((w[4], w[2], w[3]) if is_list
+                                      else (w[2], None, w[1]))
+    if not fmt:
+        raise MeshFileError(f"'{path}' is corrupt: the PLY header has no 'format' "
+                            "line")
+    return fmt, elements
 
 
 def _corners(face: _Element) -> str | None:

@@ -454,12 +454,16 @@ FILE_CASES = [
      r"is empty"),
     ("garbage stl", "garbage.stl",
      lambda d: random.Random(1).randbytes(500),
-     vs.MeshFileError, OSError, r"holds no triangles \(binary STL header"),
+     vs.MeshFileError, OSError, r"garbage\.stl' is truncated or corrupt: its binary "
+     r"STL header announces [\d,]+ triangles, which take [\d,]+ bytes \(84 \+ 50 "
+     r"each\), but the file has 500 bytes$"),
     ("text stl", "text.stl", lambda d: "hello world\n", vs.MeshFileError,
      OSError, r"holds no triangles \(ASCII STL without"),
     ("truncated binary stl", "trunc.stl", lambda d: _shared(d, "teapot.stl", 3000),
      vs.MeshFileError, OSError,
-     r"announces 894 triangles = 44784 bytes; the file has 3000 bytes: truncated"),
+     r"trunc\.stl' is truncated or corrupt: its binary STL header announces 894 "
+     r"triangles, which take 44,784 bytes \(84 \+ 50 each\), but the file has 3,000 "
+     r"bytes$"),
     ("truncated ascii stl", "trunc_ascii.stl",
      lambda d: _shared(d, "hourglass.stl", 3000), vs.MeshFileError, OSError,
      r"truncated\?"),

@@ -122,8 +122,9 @@ def binary_stl(n_triangles, claimed=None):
 
 def test_binary_stl_claiming_4e9_triangles(tmp_path):
     p = write(tmp_path, "claim.stl", binary_stl(2, claimed=4_000_000_000))
-    refused(p, r"claim\.stl' holds no triangles \(binary STL header announces "
-            r"4000000000 triangles = 200000000084 bytes; the file has 184 bytes")
+    refused(p, r"claim\.stl' is truncated or corrupt: its binary STL header "
+            r"announces 4,000,000,000 triangles, which take 200,000,000,084 bytes "
+            r"\(84 \+ 50 each\), but the file has 184 bytes$")
     assert _peak_mib(lambda: _swallow(vs.load_mesh, p)) < 4
 
 
@@ -577,3 +578,84 @@ def test_obj_number_check_needs_no_warning_filter(tmp_path):
             warnings.simplefilter(mode, DeprecationWarning)
             with pytest.raises(vs.MeshFileError, match="0x"):
                 vs.load_mesh(p)
+
+
+# ---------------------------------------------------------------------------
+# audit D08, D09, D10, D15: OBJ limits, tokens, line ends, bytes in messages
+# ---------------------------------------------------------------------------
+
+
+def test_obj_triangle_limit_is_checked_before_the_fans_are_built(tmp_path,
+                                                                 monkeypatch):
+    # one face line of 13 corners: 11 triangles, within the face-line limit
+    from vecslice import plyoff
+
+    monkeypatch.setattr("vecslice.meshfile.MAX_TRIANGLES", 10)
+    built = []
+    for module in (meshfile, plyoff):
+        real = module.fan_triangles
+        monkeypatch.setattr(module, "fan_triangles",
+                            lambda c, k, real=real: built.append(len(c)) or real(c, k))
+    ring = " ".join(str(i) for i in range(1, 14))
+    text = "".join(f"v {i} {i * i % 7} 0\n" for i in range(13)) + f"f {ring}\n"
+    refused(write(tmp_path, "fan.obj", text), r"fan\.obj' announces 11 triangles; "
+            r"vecslice reads at most 10 triangles")
+    assert built == []
+    ok = "".join(f"v {i} {i * i % 7} 0\n" for i in range(12)) + f"f {ring[:-3]}\n"
+    assert vs.load_mesh(write(tmp_path, "ok.obj", ok), repair=False).n_faces == 10
+
+
+@pytest.mark.parametrize(("face", "token"), [
+    ("f /1 /2 /3", "/1"),
+    ("f 1 2 3 /4", "/4"),
+    ("f 1 2 / 3", "/"),
+    ("f 1 2 3 //1", "//1"),
+])
+def test_obj_corner_starting_with_a_slash_is_refused(tmp_path, face, token):
+    # audit D09: such corners were dropped ('f 1 2 3 /4' loaded as a triangle)
+    refused(write(tmp_path, "s.obj", V3 + "v 1 1 0\n" + face + "\n"),
+            r"s\.obj' is corrupt: face 1 \(line 5\) has corner '" + token
+            + r"'; a corner starts with its vertex index \(v, v/vt, v//vn or "
+            r"v/vt/vn\)")
+
+
+@pytest.mark.parametrize("eol", ["\n", "\r\n", "\r", "mixed"])
+def test_obj_line_ends_cr_crlf_and_lf_alike(tmp_path, eol):
+    # audit D10: with old Mac line ends (CR only) faces were lost
+    lines = ["# square", "v 0 0 0", "v 1 0 0", "v 0 1 0", "v 1 1 0", "f 1 2 3",
+             "f 2 4 3", "f 1 2 \\", "4"]
+    ends = ["\r", "\n", "\r\n"] * 3 if eol == "mixed" else [eol] * 9
+    text = "".join(a + b for a, b in zip(lines, ends, strict=True))
+    m = vs.load_mesh(write(tmp_path, "e.obj", text), repair=False)
+    assert m.faces.tolist() == [[0, 1, 2], [1, 3, 2], [0, 1, 3]]
+    bad = text.replace("f 2 4 3", "f 2 5 3")
+    refused(write(tmp_path, "b.obj", bad), r"b\.obj' is corrupt: face 2 \(line 7\) "
+            r"refers to vertex 5; the file has 4 vertices")
+
+
+@pytest.mark.parametrize(("text", "match"), [
+    (b"v 0 0 0\nv 1 0 0\nv 0 1 \xe9\nf 1 2 3\n",
+     r"vertex 3 has b'\\xe9' where a number should be"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 é\nf 1 2 3\n".encode(),
+     r"vertex 3 has 'é' where a number should be"),
+    (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\xff\n",
+     r"face 1 \(line 4\) has vertex index b'3\\xff'; expected an integer"),
+    (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 \xe2\x84\x96\n",
+     r"face 1 \(line 4\) has vertex index '№'; expected an integer"),
+])
+def test_obj_token_bytes_are_shown_as_they_are(tmp_path, text, match):
+    # audit D15: bytes that are not UTF-8 were shown as Latin-1 ('é' for \xe9)
+    refused(write(tmp_path, "t.obj", text), r"t\.obj' is corrupt: " + match)
+
+
+@pytest.mark.parametrize(("n", "claimed", "extra"), [(3, 4, b""), (3, 2, b""),
+                                                      (3, 3, b"\0")])
+def test_binary_stl_count_that_does_not_match_the_size_is_named(tmp_path, n, claimed,
+                                                                extra):
+    # audit D17: reported as "holds no triangles"
+    data = binary_stl(n, claimed=claimed) + extra
+    err = refused(write(tmp_path, "m.stl", data), r"m\.stl' is truncated or corrupt: "
+                  rf"its binary STL header announces {claimed} triangles, which take "
+                  rf"{84 + 50 * claimed} bytes \(84 \+ 50 each\), but the file has "
+                  rf"{len(data)} bytes$")
+    assert "holds no triangles" not in str(err)

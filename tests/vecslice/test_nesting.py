@@ -283,3 +283,111 @@ def test_cubes_inside_a_fine_sphere():
     depth = nesting_depth(np.round(mesh.vertices).astype(np.int64),
                           np.asarray(mesh.faces), shell, np.ones(201, dtype=bool))
     assert depth.tolist() == [0] + [1] * 200
+
+
+# ---------------------------------------------------------------------------
+# deep nesting (audit D04: 8,000 nested tetrahedra took 218 s and 3.6 GB when
+# every pair of nested boxes was listed and tested)
+# ---------------------------------------------------------------------------
+
+TET = np.array([[-1, -1, -1], [3, -1, -1], [-1, 3, -1], [-1, -1, 3]], np.int64)
+TET_FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+BOX_FACES = np.asarray(trimesh.creation.box().faces)
+BOX_CORNERS = np.asarray(trimesh.creation.box().vertices > 0, dtype=np.int64)
+
+
+def _scene(parts):
+    """vertices, faces, shell labels of (vertices, faces) parts, one shell each."""
+    v, f, base = [], [], 0
+    for pv, pf in parts:
+        v.append(pv)
+        f.append(pf + base)
+        base += len(pv)
+    shell = np.repeat(np.arange(len(parts)), [len(pf) for _, pf in parts])
+    return np.concatenate(v).astype(np.int64), np.concatenate(f), shell
+
+
+def test_nested_shells_take_one_test_each(monkeypatch):
+    from vecslice import nesting
+
+    n = 3000
+    v, f, shell = _scene([(TET * 10 * k, TET_FACES) for k in range(1, n + 1)])
+    seen = []
+    real = nesting.points_in_shell
+    monkeypatch.setattr(nesting, "points_in_shell",
+                        lambda p, t: seen.append(len(p)) or real(p, t))
+    depth = nesting_depth(v, f, shell, np.ones(n, dtype=bool))
+    assert depth.tolist() == list(range(n - 1, -1, -1))
+    # each tetrahedron but the outermost: its first sample, then its other 4,
+    # against the next one out only (not against all the n - k around it)
+    assert seen == [1, 4] * (n - 1)
+
+
+@st.composite
+def scenes(draw):
+    """Closed boxes and tetrahedra on a coarse grid, often inside another's box
+    (ties, touching faces, equal boxes, crossing shells), some of them open."""
+    parts, region = [], []
+    for _ in range(draw(st.integers(2, 14))):
+        if region and draw(st.integers(0, 3)):  # within an earlier part's box
+            lo, hi = region[draw(st.integers(0, len(region) - 1))]
+        else:
+            lo, hi = np.zeros(3, np.int64), np.full(3, 24)
+        pick = st.tuples(*[st.integers(0, 24)] * 3)
+        if draw(st.booleans()):  # lo + 0..24 (mostly less), to hi - 0..24
+            a = lo + np.array(draw(pick)) // draw(st.sampled_from([1, 3, 6]))
+            b = hi - np.array(draw(pick)) // draw(st.sampled_from([1, 3, 6]))
+            if (a >= b).any():
+                continue
+            parts.append((np.where(BOX_CORNERS == 1, b, a), BOX_FACES))
+        else:
+            c = lo + np.array(draw(st.lists(pick, min_size=4, max_size=4))) % (
+                hi - lo + 1)
+            if orient3d(*c) == 0:
+                continue
+            parts.append((c, TET_FACES))
+        region.append((parts[-1][0].min(axis=0), parts[-1][0].max(axis=0)))
+        if draw(st.integers(0, 5)) == 0:  # a copy: the same shell again
+            parts.append(parts[draw(st.integers(0, len(parts) - 1))])
+    if len(parts) < 2:
+        parts.append((TET * 1000, TET_FACES))
+    closed = np.array(draw(st.lists(st.booleans(), min_size=len(parts),
+                                    max_size=len(parts))))
+    closed[: len(parts) * 3 // 4] = True
+    v, f, shell = _scene(parts)
+    return v * 10, f, shell, closed
+
+
+@given(scenes())
+def test_parents_equal_the_quadratic_reference(scene):
+    import reference_nesting_quadratic
+
+    from vecslice.nesting import _parents
+
+    v, f, shell, closed = scene
+    want = reference_nesting_quadratic._parents(v, f, shell, closed)
+    assert _parents(v, f, shell, closed).tolist() == want.tolist()
+
+
+def test_parents_equal_the_quadratic_reference_on_many_shells():
+    # enough shells for a tree of several levels, nested a few deep
+    import reference_nesting_quadratic
+
+    from vecslice.nesting import _parents
+
+    rng = np.random.default_rng(11)
+    parts = []
+    for _ in range(300):
+        lo = rng.integers(0, 200, 3)
+        hi = lo + rng.integers(1, 60, 3)
+        parts.append((np.where(BOX_CORNERS == 1, hi, lo), BOX_FACES))
+        if rng.random() < 0.3:
+            c = lo + rng.integers(0, 1 + (hi - lo) // 2, (4, 3))
+            if orient3d(*c) != 0:
+                parts.append((c, TET_FACES))
+    v, f, shell = _scene(parts)
+    closed = rng.random(len(parts)) < 0.9
+    want = reference_nesting_quadratic._parents(v, f, shell, closed)
+    got = _parents(v, f, shell, closed)
+    assert got.tolist() == want.tolist()
+    assert (got >= 0).sum() > 50  # many nested, not only separate shells

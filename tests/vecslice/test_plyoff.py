@@ -439,3 +439,76 @@ def test_a_nul_byte_in_the_body_is_named_where_it_is(tmp_path):
     data = ascii_ply(XYZ, rows, [" ".join(map(str, [3, *t])) for t in TET_F])
     refused(write(tmp_path, "z.ply", data),
             r"z\.ply' is corrupt: '10\\x000' where a number should be \(line 12\)")
+
+
+# ---------------------------------------------------------------------------
+# audit D16: header lines that say nothing PLY knows were skipped
+# ---------------------------------------------------------------------------
+
+GOOD = ascii_ply(XYZ, [" ".join(map(str, p)) for p in TET],
+                 [" ".join(map(str, [3, *t])) for t in TET_F]).decode()
+
+
+@pytest.mark.parametrize(("old", "new", "line", "why"), [
+    ("element vertex 4\n", "element vertex 4\npropety float w\n", 4,
+     r"expected 'format', 'element', 'property', 'comment' or 'obj_info'"),
+    ("element vertex 4\n", "element vertex\nelement vertex 4\n", 3,
+     r"expected 'element NAME COUNT'"),
+    ("element vertex 4\n", "element vertex 4 x\n", 3,
+     r"expected 'element NAME COUNT'"),
+    ("property float x\n", "property float x y\n", 4,
+     r"expected 'property TYPE NAME' or 'property list COUNT_TYPE VALUE_TYPE NAME'"),
+    ("property list uchar int vertex_indices\n", "property list uchar int\n", 8,
+     r"expected 'property TYPE NAME' or 'property list COUNT_TYPE VALUE_TYPE NAME'"),
+    ("format ascii 1.0\n", "format ascii 1.0\nproperty float q\n", 3,
+     r"a property before any element"),
+    ("format ascii 1.0\n", "format ascii\n", 2,
+     r"expected 'format ascii\|binary_little_endian\|binary_big_endian VERSION'"),
+    ("format ascii 1.0\n", "format ascii 1.0\nformat ascii 1.0\n", 3,
+     r"a second 'format' line"),
+    ("ply\n", "ply 1\n", 1, r"the first line is 'ply'"),
+    ("end_header\n", "end_header\n", 0, ""),  # a clean file, for reference
+])
+def test_a_malformed_header_line_is_refused_by_number(tmp_path, old, new, line, why):
+    data = GOOD.replace(old, new, 1).encode()
+    p = write(tmp_path, "h.ply", data)
+    if not line:
+        assert triangles(*read_mesh_file(p)) == triangles(TET, TET_F)
+        return
+    text = data.decode().split("\n")[line - 1]
+    refused(p, r"h\.ply' is corrupt: PLY header line '" + text.replace("|", r"\|")
+            + r"' \(line " + str(line) + r"\): " + why)
+
+
+@pytest.mark.parametrize(("old", "new", "match"), [
+    ("format ascii 1.0\n", "", r"the PLY header has no 'format' line"),
+    ("format ascii 1.0\n", "format text 1.0\n", r"unknown PLY format 'text'; "
+     r"expected ascii, binary_little_endian or binary_big_endian"),
+])
+def test_a_header_without_a_known_format_is_refused(tmp_path, old, new, match):
+    # both were read as ASCII
+    refused(write(tmp_path, "f.ply", GOOD.replace(old, new, 1).encode()),
+            r"f\.ply' is corrupt: " + match)
+
+
+def test_comments_obj_info_and_blank_header_lines_are_allowed(tmp_path):
+    data = GOOD.replace("element vertex", "comment made by hand\nobj_info x 1\n\n"
+                        "  \ncomment\nelement vertex", 1).replace(
+        "end_header", "obj_info\nend_header", 1)
+    p = write(tmp_path, "c.ply", data.encode())
+    assert triangles(*read_mesh_file(p)) == triangles(TET, TET_F)
+
+
+def test_body_token_bytes_are_shown_as_they_are(tmp_path):
+    # audit D15, as for OBJ: bytes that are not UTF-8 were shown as Latin-1
+    rows = [" ".join(map(str, p)) for p in TET]
+    for token, shown in ((b"\xe9", r"b'\\xe9'"), ("é".encode(), "'é'")):
+        data = ascii_ply(XYZ, rows, [" ".join(map(str, [3, *t])) for t in TET_F])
+        data = data.replace(b"\n0 10 0\n", b"\n0 10 " + token + b"\n")
+        refused(write(tmp_path, "u.ply", data),
+                r"u\.ply' is corrupt: " + shown + r" where a number should be "
+                r"\(line 12\)")
+        off = b"OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 " + token + b"\n0 0 1\n3 0 1 2\n"
+        refused(write(tmp_path, "u.off", off),
+                r"u\.off' is corrupt: " + shown + r" where a number should be "
+                r"\(line 5\)")
