@@ -78,21 +78,22 @@ def _run(args, run=None):
     return seg_order, _rings(lc, lr, ll), _rings(cc, cr, cl)
 
 
-# starts and ends near a few points (many within 10 µm of each other, some just
-# beyond it) or anywhere
+# starts and ends near one another: on a 5 µm grid (distances of exactly 10 µm,
+# the largest gap CuraEngine bridges, and just beyond), in a small cluster, or
+# anywhere
 POINT = st.one_of(
-    st.tuples(st.integers(0, 3).map(lambda v: 9 * v), st.integers(0, 3).map(
-        lambda v: 9 * v)),
-    st.tuples(st.integers(-12, 12), st.integers(-12, 12)),
+    st.tuples(st.integers(0, 3).map(lambda v: 5 * v), st.integers(0, 3).map(
+        lambda v: 5 * v)),
+    st.tuples(st.integers(-6, 6), st.integers(-6, 6)),
     st.tuples(st.integers(-1000, 1000), st.integers(-1000, 1000)),
 )
 
 
 @st.composite
-def planes(draw):
-    n_layers = draw(st.integers(1, 3))
-    n_vertices = draw(st.integers(3, 6))
-    n_faces = draw(st.integers(1, 24))
+def planes(draw, max_layers=3, max_vertices=6, max_faces=24, near=POINT):
+    n_layers = draw(st.integers(1, max_layers))
+    n_vertices = draw(st.integers(3, max_vertices))
+    n_faces = draw(st.integers(1, max_faces))
     faces, slots = [], []
     for _ in range(n_faces):
         vs = draw(st.permutations(range(n_vertices)))[:3]
@@ -100,7 +101,7 @@ def planes(draw):
         n = draw(st.integers(0, n_layers - lo))
         faces.append((tuple(vs), lo))
         slots.append([draw(st.none() | st.tuples(
-            POINT, POINT, st.integers(-1, n_faces - 1),
+            near, near, st.integers(-1, n_faces - 1),
             st.sampled_from([-1, -1, *vs]))) for _ in range(n)])
     return n_layers, faces, slots, n_vertices
 
@@ -114,6 +115,14 @@ def test_basic_loops_match_reference(case):
         polygons, polylines = ref.basic_loops(per_plane[k], vf)
         assert loops[k] == [list(p) for p in polygons]
         assert chains[k] == [list(p) for p in polylines]
+
+
+@given(planes(max_layers=1, max_vertices=4, max_faces=40,
+              near=st.tuples(st.integers(-7, 7), st.integers(-7, 7))))
+def test_basic_loops_around_busy_vertices_match_reference(case):
+    # few vertices, many faces, points close together: long searches around a
+    # vertex, where used segments are skipped
+    test_basic_loops_match_reference.hypothesis.inner_test(case)
 
 
 @given(planes())
@@ -155,6 +164,35 @@ def test_hub_index_keeps_every_candidate_within_reach(case):
         assert set(near) <= set(cands.tolist())
         assert (np.diff(cands) > 0).all()
     assert (seg_hub[links[:, 1] < 0] == -1).all()
+
+
+def test_skipping_used_segments_never_hides_an_unused_one():
+    # one vertex on the plane, and 8 faces around it, so all 8 segments are
+    # tried when a chain ends on it; only p1..p4 start near the three ends on it
+    # (A, B and C end at x = 0, 100, 200), so only they are candidates, in the
+    # order p1, p2, p3, p4. The first chain takes p4 and p3 over edges and ends
+    # on the vertex with A: p4, p3 are skipped, p2 is too far, p1 is taken. B
+    # finds nothing (its search jumps over p4, p3 at once), and C must still
+    # find p2 below those jumps.
+    far = [(1000, 1000), (500, 500), (900, 900), (950, 950), (700, 700),
+           (800, 800)]
+    #         start      end         other face  end vertex
+    segs = [(far[0], (150, 0), 7, -1),       # 0 W
+            (far[1], (0, 0), -1, 0),         # 1 A
+            (far[2], (100, 0), -1, 0),       # 2 B
+            (far[3], (200, 0), -1, 0),       # 3 C
+            ((0, 5), far[4], -1, -1),        # 4 p1, near A's end
+            ((200, 5), far[5], -1, -1),      # 5 p2, near C's end
+            ((50, 0), far[1], 1, -1),        # 6 p3
+            ((150, 0), (50, 0), 6, -1)]      # 7 p4
+    faces = [((0, 1 + 2 * f, 2 + 2 * f), 0) for f in range(8)]
+    args, per_plane, vf = _arrays(1, faces, [[x] for x in segs], 17)
+    seg_order, loops, chains = _run(args)
+    polygons, polylines = ref.basic_loops(per_plane[0], vf)
+    assert chains[0] == [list(p) for p in polylines] and loops == [[]]
+    assert seg_order.tolist() == [0, 7, 6, 1, 4, 2, 3, 5]
+    _, hub_offsets, hub_cands = hub_index(*args)
+    assert hub_offsets.tolist() == [0, 4] and hub_cands.tolist() == [4, 5, 6, 7]
 
 
 def _fan(n, hub=(0, 0)):
