@@ -7,9 +7,11 @@ Follows ``spec/CURA_COMPAT.md`` section 2 (CuraEngine 07475e3, its ``loadMeshSTL
   (any case) the file is read as ASCII, and if that gives no triangle, as binary.
 * **ASCII.** Lines end at ``\n`` or ``\r``; a line is a vertex if it matches
   ``sscanf(" vertex %f %f %f")``: optional whitespace, the word ``vertex`` and three
-  C floating-point numbers (decimal, hexadecimal, ``inf``, ``nan``), each parsed to
-  the nearest **float32**. Every 3 vertices form a triangle; text after the third
-  number is ignored.
+  C floating-point numbers (decimal, hexadecimal, ``inf``, ``nan``), each read as
+  glibc's ``%f`` reads it and rounded once to the nearest **float32** (see
+  :mod:`vecslice._cfloat`: ``1.5e`` is 1.5, ``1-2`` is two numbers, ``123`` is
+  never two). Every 3 vertices form a triangle; text after the third number is
+  ignored.
 * **Binary.** 80-byte header, a uint32 count, 50-byte records (normal, 9 float32,
   2 bytes). The number of records comes from the file size; a count that differs
   is warned about (:class:`vecslice.VecsliceWarning`).
@@ -23,25 +25,24 @@ Follows ``spec/CURA_COMPAT.md`` section 2 (CuraEngine 07475e3, its ``loadMeshSTL
   as in CuraEngine, and count for the bounding box). Nothing else is repaired:
   winding, duplicates, holes and non-manifold edges are kept as in the file.
 
-Interpretations: a float32 value is the correctly rounded one (glibc's ``strtof``,
-x86-64 Linux). One pathological case differs from glibc's ``sscanf``: a third
-number followed by an incomplete exponent (``vertex 1 2 3e+x``) is read as 3 here,
-where glibc consumes ``3e+`` and rejects the line. The mesh is not moved: CuraEngine's
-``MeshGroup::finalize`` (bed centring, ``center_object``) is outside the slicer,
-and vecslice measures layers from the mesh's lowest point anyway.
+Interpretations: numbers are read as glibc 2.36's ``sscanf`` and ``strtof`` read
+them (x86-64 Linux, the "C" locale), which the tests check against the C library.
+The mesh is not moved: CuraEngine's ``MeshGroup::finalize`` (bed centring,
+``center_object``) is outside the slicer, and vecslice measures layers from the
+mesh's lowest point anyway.
 """
 
 from __future__ import annotations
 
 import re
 import warnings
-from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from vecslice._cfloat import SCANF_FLOAT, strtof
 from vecslice._kernels.cura_mesh import meld_corners
 from vecslice._threads import run_chunks
 from vecslice.errors import (
@@ -58,74 +59,24 @@ MELD_DISTANCE = 30
 """CuraEngine's ``vertex_meld_distance`` = MM2INT(0.03) µm."""
 
 _WS = rb"[ \t\v\f]*"  # isspace() within one line (lines end at \n and \r)
-_NUMBER = (
-    rb"[+-]?(?:"
-    rb"0[xX](?:[0-9a-fA-F]+\.?[0-9a-fA-F]*|\.[0-9a-fA-F]+)(?:[pP][+-]?[0-9]+)?"
-    rb"|(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
-    rb"|[iI][nN][fF](?:[iI][nN][iI][tT][yY])?"
-    rb"|[nN][aA][nN](?:\([0-9A-Za-z_]*\))?"
-    rb")"
-)
+# each number as an atomic group (a lookahead's match, taken whole): it is never
+# split to make the line match
 _VERTEX = re.compile(
-    rb"^" + _WS + rb"vertex" + _WS + rb"(" + _NUMBER + rb")" + _WS + rb"("
-    + _NUMBER + rb")" + _WS + rb"(" + _NUMBER + rb")",
+    rb"^" + _WS + rb"vertex" + b"".join(
+        _WS + rb"(?=(?P<n%d>" % i + SCANF_FLOAT + rb"))(?P=n%d)" % i
+        for i in range(3)),
     re.MULTILINE,
 )
 _SPACE = b" \t\n\v\f\r"
 _RECORD = np.dtype([("normal", "<f4", 3), ("v", "<f4", 9), ("attr", "<u2")])
 
-
-def _c_double(token: bytes) -> float:
-    """A C ``strtod`` token as a Python float (exact for hex, nan and inf)."""
-    t = token.lower()
-    body = t.lstrip(b"+-")
-    sign = -1.0 if t.startswith(b"-") else 1.0
-    if body.startswith(b"0x"):
-        return float.fromhex(t.decode())
-    if body.startswith(b"inf"):
-        return sign * np.inf
-    if body.startswith(b"nan"):
-        return np.nan
-    return float(t)
-
-
-def _to_float32(tokens: list[bytes]) -> NDArray[np.float32]:
-    """Parse C float tokens to the nearest float32 (ties to even), like strtof.
-
-    Parsing to double and rounding that to float32 can differ from one rounding
-    only when the double lies exactly halfway between two float32 values; those
-    few are redone exactly from the decimal text.
-    """
-    if not tokens:
-        return np.empty(0, dtype=np.float32)
-    try:
-        d = np.array(tokens).astype(np.float64)
-    except ValueError:  # hex, nan(...) and the like: rare, one by one
-        d = np.array([_c_double(t) for t in tokens], dtype=np.float64)
-    with np.errstate(over="ignore"):
-        f = d.astype(np.float32)
-    bits = d.view(np.uint64)
-    low = bits & np.uint64((1 << 29) - 1)
-    tie = np.flatnonzero((low == np.uint64(1 << 28)) & (np.abs(d) >= 2.0**-126)
-                         & np.isfinite(d))
-    for i in tie:
-        t = tokens[i].lower()
-        if b"x" in t:
-            continue  # a hex float is exact in double: no second rounding
-        exact = Fraction(t.decode())
-        mid = Fraction(float(d[i]))
-        if exact == mid:
-            continue  # a true tie: float32 rounding already went to even
-        toward = np.float32(np.inf) if exact > mid else np.float32(-np.inf)
-        if (f[i] > d[i]) != (exact > mid):
-            f[i] = np.nextafter(f[i], toward)
-    return f
+_to_float32 = strtof  # C float tokens to float32, as strtof rounds them
 
 
 def _parse_ascii(path: Path, data: bytes) -> NDArray[np.float32]:
     """The ``vertex`` values of an ASCII STL, (N, 3) float32 in file order."""
     text = data.replace(b"\r", b"\n")
-    rows = _VERTEX.findall(text)
+    rows = _VERTEX.findall(text)  # (x, y, z) per line
     _check_count(path, len(rows) // 3)
     return _to_float32([t for m in rows for t in m]).reshape(-1, 3)
 
