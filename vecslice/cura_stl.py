@@ -44,7 +44,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vecslice._cfloat import SCANF_FLOAT, strtof
-from vecslice._kernels.cura_mesh import meld_corners
+from vecslice._kernels.cura_mesh import group_cells, meld_corners
 from vecslice._threads import run_chunks
 from vecslice.errors import (
     InputTypeError,
@@ -253,12 +253,6 @@ def mm2int(
     return um.astype(np.int64)
 
 
-def _trunc_div(a: NDArray[np.int64], b: int) -> NDArray[np.int64]:
-    """C integer division ``a / b`` (truncating toward zero), b > 0."""
-    q = np.abs(a) // b
-    return np.where(a < 0, -q, q)
-
-
 def meld(corners_um: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Meld corners (3F, 3) µm into ``(vertices, corner_vertex)``, CuraEngine's way.
 
@@ -276,13 +270,9 @@ def meld(corners_um: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.i
     """
     c = np.ascontiguousarray(corners_um, dtype=np.int64)
     n = c.shape[0]
-    q = _trunc_div(c + MELD_DISTANCE // 2, MELD_DISTANCE)
-    order = np.lexsort((q[:, 2], q[:, 1], q[:, 0])).astype(np.int64)
-    qs = q[order]
-    new_cell = np.ones(n, dtype=bool)
-    if n:
-        new_cell[1:] = (qs[1:] != qs[:-1]).any(axis=1)
-    cell_offsets = np.append(np.flatnonzero(new_cell), n).astype(np.int64)
+    # in short chunks of linear work (a lexsort of 3 million corners took 2.6 s,
+    # during which Ctrl-C waited)
+    order, cell_offsets = group_cells(c, MELD_DISTANCE, run=run_chunks)
     rep = meld_corners(c, order, cell_offsets, MELD_DISTANCE, run=run_chunks)
     created = rep == np.arange(n, dtype=np.int64)
     new_id = np.cumsum(created, dtype=np.int64) - 1
