@@ -86,9 +86,8 @@ def hub_index(points, links, layer_offsets, face_lo, slot_offsets, slot_seg,
     ``vf_faces``, hence by increasing segment (faces around a vertex come in
     face order, and a plane numbers its segments in face order).
 
-    One pass over the segments and one over the faces around each hub: the
-    candidates of all hubs together number at most ``3 * faces`` per plane
-    through vertices.
+    One pass over the segments and two over the faces around each hub; a
+    segment is a candidate of at most three hubs (its face's vertices).
 
     Preconditions: as :func:`basic_loops`.
     """
@@ -157,8 +156,8 @@ def _alive_below(i, lo, hub_cands, added, io_skip):
     ``lo - 1`` or below if there is none. ``io_skip[j] == j`` for a position not
     yet known to be used; otherwise every position in ``io_skip[j] + 1 .. j``
     holds a used segment. Segments are never unmarked, so the jumps only grow
-    (halved as they are followed): the scans of a hub cost about its candidate
-    count in all.
+    (halved as they are followed): used candidates cost a hub's searches about
+    its candidate count in all.
     """
     while i >= lo:
         j = io_skip[i]
@@ -273,7 +272,10 @@ def basic_loops(points, links, layer_offsets, face_lo, slot_offsets, slot_seg,
     :func:`hub_index`, which keeps only the segments starting near the vertex and
     skips used ones for good: a vertex on the plane with n faces around it costs
     about n in all, not n per segment ending there (a fan of 40,000 triangles
-    around one vertex took 22 s with the plain search).
+    around one vertex took 22 s with the plain search). Only unused candidates
+    farther than 10 µm from the end searched from are passed again by each
+    search; the box keeps out all but those near the other ends on the vertex,
+    which CuraEngine's arithmetic puts within 1 µm of it.
 
     Returns ``(seg_order, ring_start, closed)`` of length S: segments in visiting
     order (a permutation of each plane's range), whether position ``i`` starts a
