@@ -1,7 +1,9 @@
 """Kernels building a mesh the way CuraEngine's ``Mesh`` holds it (compat mode).
 
-Two passes, both from ``spec/CURA_COMPAT.md`` section 2:
+Three passes, from ``spec/CURA_COMPAT.md`` section 2:
 
+* :func:`group_cells` -- the corners grouped by CuraEngine's 30 µm hash cell, in
+  linear time and in short chunks;
 * :func:`meld_corners` -- CuraEngine's 30 µm vertex melding (``addFace`` ->
   ``findIndexOfVertex``), one pass over all corners in file order;
 * :func:`face_neighbours` -- ``Mesh::finish``: the face across each edge of every
@@ -12,11 +14,188 @@ import numpy as np
 from numba import types
 
 from ._jit import cost_chunks, even_chunks, kernel, run_serial
-from ._types import I64, I64_1D, I64_1D_OUT, I64_1D_W, I64_2D, I64_2D_W
+from ._types import B1_1D_W, I64, I64_1D, I64_1D_OUT, I64_1D_W, I64_2D, I64_2D_W
+from .geometry import tdiv
 
 _TWO_PI = 2.0 * np.pi
 _MELD_CHUNK = 1 << 16  # corners per chunk of cells to meld
 _FACE_CHUNK = 1 << 14  # faces per chunk of face_neighbours
+_HASH_CHUNK = 1 << 20  # corners per chunk of the partition passes of group_cells
+_PART_SIZE = 2048  # about this many corners per partition: its table stays in cache
+_PART_CHUNK = 1 << 16  # corners per chunk of partitions to group
+
+# odd 64-bit multipliers (from splitmix64 and the golden ratio) mixing a cell
+_MIX_X = np.int64(-7046029254386353131)  # 0x9E3779B97F4A7C15
+_MIX_Y = np.int64(-4658895280553007687)  # 0xBF58476D1CE4E5B9
+_MIX_Z = np.int64(-7723592293110705685)  # 0x94D049BB133111EB
+
+
+@kernel(inline="always")
+def _cell(corners, i, reach):
+    """CuraEngine's hash cell of corner ``i``: ``trunc((c + reach/2) / reach)``."""
+    half = reach // 2
+    return (tdiv(corners[i, 0] + half, reach), tdiv(corners[i, 1] + half, reach),
+            tdiv(corners[i, 2] + half, reach))
+
+
+@kernel(inline="always")
+def _same_cell(corners, a, b, reach):
+    """Whether corners ``a`` and ``b`` lie in the same hash cell."""
+    ax, ay, az = _cell(corners, a, reach)
+    bx, by, bz = _cell(corners, b, reach)
+    return ax == bx and ay == by and az == bz
+
+
+@kernel(inline="always")
+def _cell_hash(qx, qy, qz):
+    """A well-mixed 64-bit hash of a cell (wrapping int64 arithmetic)."""
+    h = qx * _MIX_X + qy * _MIX_Y + qz * _MIX_Z
+    h ^= h >> 29
+    h *= _MIX_X
+    return np.uint64(h)
+
+
+_U64_1D = types.Array(types.uint64, 1, "C", readonly=True)
+_U64_1D_W = types.uint64[::1]
+
+
+@kernel(types.void(I64_2D, I64, I64, I64, I64, I64, _U64_1D_W, I64_2D_W))
+def _hash_range(corners, reach, pbits, size, c0, c1, out_hash, out_hist):
+    """The cell hash of corners ``c0:c1``, counted by partition.
+
+    A corner's partition is its hash's top ``pbits`` bits; the counts go to row
+    ``c0 // size`` of ``out_hist`` (zero on entry).
+    """
+    row = c0 // size
+    shift = np.uint64(64 - pbits) if pbits > 0 else np.uint64(63)
+    for i in range(c0, c1):
+        qx, qy, qz = _cell(corners, i, reach)
+        h = _cell_hash(qx, qy, qz)
+        out_hash[i] = h
+        out_hist[row, np.int64(h >> shift) if pbits > 0 else 0] += 1
+
+
+@kernel(types.void(_U64_1D, I64, I64, I64, I64, I64_2D_W, I64_1D_W, _U64_1D_W))
+def _scatter_range(hashes, pbits, size, c0, c1, io_pos, out_order, out_hash):
+    """Corners ``c0:c1`` (and their hashes) to their partitions' slots, in order.
+
+    Row ``c0 // size`` of ``io_pos`` holds this chunk's next slot in each
+    partition.
+    """
+    row = c0 // size
+    shift = np.uint64(64 - pbits) if pbits > 0 else np.uint64(63)
+    for i in range(c0, c1):
+        h = hashes[i]
+        p = np.int64(h >> shift) if pbits > 0 else 0
+        out_order[io_pos[row, p]] = i
+        out_hash[io_pos[row, p]] = h
+        io_pos[row, p] += 1
+
+
+@kernel(types.void(I64_2D, I64, I64_1D, I64_1D, _U64_1D, I64, I64, I64_1D_W, B1_1D_W))
+def _group_range(corners, reach, part_offsets, by_part, part_hash, p0, p1,
+                 out_order, out_cell_start):
+    """Group the corners of partitions ``p0:p1`` by cell, file order kept.
+
+    Partition ``p`` holds ``by_part[part_offsets[p]:part_offsets[p + 1]]`` in
+    file order (their cell hashes beside them in ``part_hash``); the same slots
+    of ``out_order`` get them grouped by cell (cells
+    in order of first appearance), ``out_cell_start`` marking each cell's first
+    slot (False on entry).
+    """
+    m_max = 0
+    for p in range(p0, p1):
+        m_max = max(m_max, part_offsets[p + 1] - part_offsets[p])
+    tbits = 1
+    while (np.int64(1) << tbits) < 2 * m_max:
+        tbits += 1
+    table = np.full(np.int64(1) << tbits, -1, dtype=np.int64)  # a cell per slot
+    first = np.empty(m_max, dtype=np.int64)  # the slot of each cell's first corner
+    cell_of = np.empty(m_max, dtype=np.int64)
+    fill = np.empty(m_max + 1, dtype=np.int64)
+    for p in range(p0, p1):
+        start = part_offsets[p]
+        m = part_offsets[p + 1] - start
+        if m == 0:
+            continue
+        tb = 1
+        while (np.int64(1) << tb) < 2 * m:
+            tb += 1
+        mask = (np.int64(1) << tb) - 1
+        table[: mask + 1] = -1
+        n_cells = 0
+        fill[0] = 0
+        for j in range(m):
+            i = by_part[start + j]
+            h = part_hash[start + j]
+            t = np.int64(h & np.uint64(mask))
+            while True:
+                c = table[t]
+                if c < 0:
+                    table[t] = n_cells
+                    first[n_cells] = start + j
+                    fill[n_cells + 1] = 0
+                    c = n_cells
+                    n_cells += 1
+                    break
+                if part_hash[first[c]] == h and _same_cell(corners, i,
+                                                          by_part[first[c]], reach):
+                    break
+                t = (t + 1) & mask
+            cell_of[j] = c
+            fill[c + 1] += 1
+        for c in range(n_cells):
+            fill[c + 1] += fill[c]
+            out_cell_start[start + fill[c]] = True
+        for j in range(m):
+            c = cell_of[j]
+            out_order[start + fill[c]] = by_part[start + j]
+            fill[c] += 1
+
+
+def group_cells(corners, reach, run=run_serial):
+    """The corners grouped by CuraEngine's hash cell, file order within a cell.
+
+    The cell of corner ``c`` is ``trunc((c + reach/2) / reach)`` per axis (C
+    division). Returns ``(order, cell_offsets)`` for :func:`meld_corners`: cell
+    ``k`` is ``order[cell_offsets[k]:cell_offsets[k + 1]]``, its corners in file
+    order; the cells come in no particular order.
+
+    In linear expected time, like ``vertices.merge_vertices``: the corners are
+    partitioned by the top bits of a hash of their cell (a stable counting sort,
+    in chunks of corners: counts per chunk, then each chunk scatters to its own
+    slots), then each partition groups its corners with a small hash table
+    (chunks of partitions). All passes go to ``run`` in chunks (``run(fn,
+    bounds)`` calls ``fn(lo, hi)`` for every chunk, in any order or at once:
+    e.g. ``vecslice._threads.run_chunks``); by default one after another. No
+    chunk runs long, so Ctrl-C is seen between chunks.
+
+    Preconditions: |corners| < 2**62; ``reach`` > 0.
+    """
+    n = corners.shape[0]
+    pbits = 0
+    while (np.int64(1) << pbits) * _PART_SIZE < n and pbits < 20:
+        pbits += 1
+    n_parts = 1 << pbits
+    bounds = even_chunks(n, _HASH_CHUNK)
+    hashes = np.empty(n, dtype=np.uint64)
+    hist = np.zeros((max(len(bounds) - 1, 1), n_parts), dtype=np.int64)
+    run(lambda c0, c1: _hash_range(corners, reach, pbits, _HASH_CHUNK, c0, c1, hashes,
+                                   hist), bounds)
+    # partition-major, chunk-minor: each chunk's slots in each partition
+    counts = hist.T.ravel()
+    pos = (np.cumsum(counts) - counts).reshape(n_parts, -1).T.copy()
+    part_offsets = np.append(pos[0], np.int64(n))
+    by_part = np.empty(n, dtype=np.int64)
+    part_hash = np.empty(n, dtype=np.uint64)
+    run(lambda c0, c1: _scatter_range(hashes, pbits, _HASH_CHUNK, c0, c1, pos,
+                                      by_part, part_hash), bounds)
+    order = np.empty(n, dtype=np.int64)
+    cell_start = np.zeros(n, dtype=np.bool_)
+    run(lambda p0, p1: _group_range(corners, reach, part_offsets, by_part, part_hash,
+                                    p0, p1, order, cell_start),
+        cost_chunks(part_offsets, _PART_CHUNK))
+    return order, np.append(np.flatnonzero(cell_start), np.int64(n))
 
 
 @kernel(inline="always")

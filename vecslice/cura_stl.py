@@ -7,9 +7,11 @@ Follows ``spec/CURA_COMPAT.md`` section 2 (CuraEngine 07475e3, its ``loadMeshSTL
   (any case) the file is read as ASCII, and if that gives no triangle, as binary.
 * **ASCII.** Lines end at ``\n`` or ``\r``; a line is a vertex if it matches
   ``sscanf(" vertex %f %f %f")``: optional whitespace, the word ``vertex`` and three
-  C floating-point numbers (decimal, hexadecimal, ``inf``, ``nan``), each parsed to
-  the nearest **float32**. Every 3 vertices form a triangle; text after the third
-  number is ignored.
+  C floating-point numbers (decimal, hexadecimal, ``inf``, ``nan``), each read as
+  glibc's ``%f`` reads it and rounded once to the nearest **float32** (see
+  :mod:`vecslice._cfloat`: ``1.5e`` is 1.5, ``1-2`` is two numbers, ``123`` is
+  never two). Every 3 vertices form a triangle; text after the third number is
+  ignored.
 * **Binary.** 80-byte header, a uint32 count, 50-byte records (normal, 9 float32,
   2 bytes). The number of records comes from the file size; a count that differs
   is warned about (:class:`vecslice.VecsliceWarning`).
@@ -23,26 +25,26 @@ Follows ``spec/CURA_COMPAT.md`` section 2 (CuraEngine 07475e3, its ``loadMeshSTL
   as in CuraEngine, and count for the bounding box). Nothing else is repaired:
   winding, duplicates, holes and non-manifold edges are kept as in the file.
 
-Interpretations: a float32 value is the correctly rounded one (glibc's ``strtof``,
-x86-64 Linux). One pathological case differs from glibc's ``sscanf``: a third
-number followed by an incomplete exponent (``vertex 1 2 3e+x``) is read as 3 here,
-where glibc consumes ``3e+`` and rejects the line. The mesh is not moved: CuraEngine's
-``MeshGroup::finalize`` (bed centring, ``center_object``) is outside the slicer,
-and vecslice measures layers from the mesh's lowest point anyway.
+Interpretations: numbers are read as glibc 2.36's ``sscanf`` and ``strtof`` read
+them (x86-64 Linux, the "C" locale), which the tests check against the C library.
+The mesh is not moved: CuraEngine's ``MeshGroup::finalize`` (bed centring,
+``center_object``) is outside the slicer, and vecslice measures layers from the
+mesh's lowest point anyway.
 """
 
 from __future__ import annotations
 
 import re
 import warnings
-from fractions import Fraction
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from vecslice._kernels.cura_mesh import meld_corners
+from vecslice._cfloat import SCANF_FLOAT, strtof
+from vecslice._kernels.cura_mesh import group_cells, meld_corners
 from vecslice._threads import run_chunks
 from vecslice.errors import (
     InputTypeError,
@@ -58,74 +60,24 @@ MELD_DISTANCE = 30
 """CuraEngine's ``vertex_meld_distance`` = MM2INT(0.03) µm."""
 
 _WS = rb"[ \t\v\f]*"  # isspace() within one line (lines end at \n and \r)
-_NUMBER = (
-    rb"[+-]?(?:"
-    rb"0[xX](?:[0-9a-fA-F]+\.?[0-9a-fA-F]*|\.[0-9a-fA-F]+)(?:[pP][+-]?[0-9]+)?"
-    rb"|(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
-    rb"|[iI][nN][fF](?:[iI][nN][iI][tT][yY])?"
-    rb"|[nN][aA][nN](?:\([0-9A-Za-z_]*\))?"
-    rb")"
-)
+# each number as an atomic group (a lookahead's match, taken whole): it is never
+# split to make the line match
 _VERTEX = re.compile(
-    rb"^" + _WS + rb"vertex" + _WS + rb"(" + _NUMBER + rb")" + _WS + rb"("
-    + _NUMBER + rb")" + _WS + rb"(" + _NUMBER + rb")",
+    rb"^" + _WS + rb"vertex" + b"".join(
+        _WS + rb"(?=(?P<n%d>" % i + SCANF_FLOAT + rb"))(?P=n%d)" % i
+        for i in range(3)),
     re.MULTILINE,
 )
 _SPACE = b" \t\n\v\f\r"
 _RECORD = np.dtype([("normal", "<f4", 3), ("v", "<f4", 9), ("attr", "<u2")])
 
-
-def _c_double(token: bytes) -> float:
-    """A C ``strtod`` token as a Python float (exact for hex, nan and inf)."""
-    t = token.lower()
-    body = t.lstrip(b"+-")
-    sign = -1.0 if t.startswith(b"-") else 1.0
-    if body.startswith(b"0x"):
-        return float.fromhex(t.decode())
-    if body.startswith(b"inf"):
-        return sign * np.inf
-    if body.startswith(b"nan"):
-        return np.nan
-    return float(t)
-
-
-def _to_float32(tokens: list[bytes]) -> NDArray[np.float32]:
-    """Parse C float tokens to the nearest float32 (ties to even), like strtof.
-
-    Parsing to double and rounding that to float32 can differ from one rounding
-    only when the double lies exactly halfway between two float32 values; those
-    few are redone exactly from the decimal text.
-    """
-    if not tokens:
-        return np.empty(0, dtype=np.float32)
-    try:
-        d = np.array(tokens).astype(np.float64)
-    except ValueError:  # hex, nan(...) and the like: rare, one by one
-        d = np.array([_c_double(t) for t in tokens], dtype=np.float64)
-    with np.errstate(over="ignore"):
-        f = d.astype(np.float32)
-    bits = d.view(np.uint64)
-    low = bits & np.uint64((1 << 29) - 1)
-    tie = np.flatnonzero((low == np.uint64(1 << 28)) & (np.abs(d) >= 2.0**-126)
-                         & np.isfinite(d))
-    for i in tie:
-        t = tokens[i].lower()
-        if b"x" in t:
-            continue  # a hex float is exact in double: no second rounding
-        exact = Fraction(t.decode())
-        mid = Fraction(float(d[i]))
-        if exact == mid:
-            continue  # a true tie: float32 rounding already went to even
-        toward = np.float32(np.inf) if exact > mid else np.float32(-np.inf)
-        if (f[i] > d[i]) != (exact > mid):
-            f[i] = np.nextafter(f[i], toward)
-    return f
+_to_float32 = strtof  # C float tokens to float32, as strtof rounds them
 
 
 def _parse_ascii(path: Path, data: bytes) -> NDArray[np.float32]:
     """The ``vertex`` values of an ASCII STL, (N, 3) float32 in file order."""
     text = data.replace(b"\r", b"\n")
-    rows = _VERTEX.findall(text)
+    rows = _VERTEX.findall(text)  # (x, y, z) per line
     _check_count(path, len(rows) // 3)
     return _to_float32([t for m in rows for t in m]).reshape(-1, 3)
 
@@ -138,27 +90,89 @@ def _check_count(path: Path, n: int) -> None:
         raise meshfile._too_many(path, n)
 
 
-def _parse_binary(path: Path, data: bytes) -> NDArray[np.float32]:
-    """The corners of a binary STL, (3F, 3) float32; F from the file size."""
+def _parse_binary(path: Path, data: bytes) -> tuple[NDArray[np.float32], str]:
+    """The corners of a binary STL, (3F, 3) float32 (F from the file size).
+
+    Also returns a warning to give if the header's count differs (else empty).
+    """
     if len(data) < 84:
         raise MeshFileError(
-            f"'{path}' is not an STL file: a binary STL needs an 84-byte header; "
-            f"the file has {len(data)} bytes"
-        )
+            f"'{path}' is not an STL file: {_short_binary(data)}")
     n = (len(data) - 84) // 50
     _check_count(path, n)
     announced = int(np.frombuffer(data, dtype="<u4", count=1, offset=80)[0])
+    warning = ""
     if announced != n:
-        warnings.warn(
-            f"'{path}': the binary STL header announces {announced} triangles; the "
-            f"file size gives {n} (reading {n}, as CuraEngine does)",
-            VecsliceWarning, stacklevel=4,
-        )
+        warning = (f"'{path}': the binary STL header announces {announced} "
+                   f"triangles; the file size gives {n} (reading {n}, as CuraEngine "
+                   "does)")
     rec = np.frombuffer(data, dtype=_RECORD, count=n, offset=84)
-    return np.ascontiguousarray(rec["v"]).reshape(-1, 3)
+    return np.ascontiguousarray(rec["v"]).reshape(-1, 3), warning
 
 
-def read_stl_corners(path: Path) -> NDArray[np.float32]:
+def _short_binary(data: bytes) -> str:
+    return f"a binary STL needs an 84-byte header; the file has {len(data)} bytes"
+
+
+_LINE_BREAK = re.compile(rb"\r\n|\r|\n")
+_VERTEX_WORD = re.compile(rb"^" + _WS + rb"vertex", re.MULTILINE | re.IGNORECASE)
+
+
+def _line_number(data: bytes, at: int) -> int:
+    """The line (from 1) of byte ``at``; lines end at CR LF, CR or LF."""
+    return len(_LINE_BREAK.findall(data, 0, at)) + 1
+
+
+def _vertex_line(data: bytes, k: int) -> int:
+    """The line of an ASCII STL's vertex ``k`` (0-based, in file order)."""
+    for i, m in enumerate(_VERTEX.finditer(data.replace(b"\r", b"\n"))):
+        if i == k:
+            return _line_number(data, m.start())
+    return 0
+
+
+def _why_not_ascii(data: bytes, n_vertices: int) -> str:
+    """Why a file beginning with ``solid`` gave CuraEngine no ASCII triangle."""
+    why = []
+    if n_vertices:
+        why.append(f"it has {n_vertices} vertex line{'s' if n_vertices > 1 else ''}, "
+                   "fewer than a triangle's 3")
+    text = data.replace(b"\r", b"\n")
+    for m in _VERTEX_WORD.finditer(text):
+        if _VERTEX.match(text, m.start()):
+            continue
+        end = text.find(b"\n", m.start())
+        line = text[m.start():end if end >= 0 else len(text)].strip()
+        shown = line[:60].decode("latin-1") + ("..." if len(line) > 60 else "")
+        at = _line_number(data, m.start())
+        if line.startswith(b"vertex"):
+            why.append(f"line {at} ({shown!r}) is not 'vertex' and three numbers as "
+                       "CuraEngine reads them (sscanf \" vertex %f %f %f\")")
+        else:
+            why.append(f"its vertex lines are not in lower case (line {at}: "
+                       f"{shown!r}); CuraEngine reads only 'vertex' (compat='vecslice' "
+                       "any case)")
+        break
+    return "; ".join(why) or "no line starts with 'vertex'"
+
+
+class StlCorners(NamedTuple):
+    """What :func:`read_stl_corners` read."""
+
+    corners: NDArray[np.float32]
+    """(3F, 3): the triangle corners in file order."""
+    data: bytes
+    """The file's bytes."""
+    ascii: bool
+    """Read as an ASCII STL."""
+    not_ascii: str
+    """Why a file that begins with ``solid`` gave no ASCII triangle (then it was
+    read as binary, as CuraEngine does); empty for other files."""
+    warning: str
+    """A binary STL's count that differs from its size, to warn about; or empty."""
+
+
+def read_stl_corners(path: Path) -> StlCorners:
     """Triangle corners of an STL file as CuraEngine reads them, (3F, 3) float32.
 
     Raises
@@ -166,8 +180,9 @@ def read_stl_corners(path: Path) -> NDArray[np.float32]:
     MeshFileError
         If the file is missing, a symbolic link loop, a directory, not a regular
         file (a pipe or a device such as /dev/zero, which would never end),
-        unreadable, too short for its type, or holds more than
-        :data:`vecslice.meshfile.MAX_TRIANGLES` triangles.
+        unreadable, too short for its type (a file beginning with ``solid``
+        whose ASCII gives no triangle: for both types, with the reason for each),
+        or holds more than :data:`vecslice.meshfile.MAX_TRIANGLES` triangles.
     """
     from vecslice.meshfile import _check_path
 
@@ -182,16 +197,35 @@ def read_stl_corners(path: Path) -> NDArray[np.float32]:
             f"'{path}' is not an STL file: fewer than 5 bytes after leading "
             f"whitespace (got {len(body)})"
         )
-    if body[:5].lower() == b"solid":
-        v = _parse_ascii(path, data)
-        n = v.shape[0] - v.shape[0] % 3
-        if n:
-            return v[:n]
-    return _parse_binary(path, data)
+    if body[:5].lower() != b"solid":
+        corners, warning = _parse_binary(path, data)
+        return StlCorners(corners, data, False, "", warning)
+    v = _parse_ascii(path, data)
+    n = v.shape[0] - v.shape[0] % 3
+    if n:
+        return StlCorners(v[:n], data, True, "", "")
+    why = _why_not_ascii(data, v.shape[0])
+    if len(data) < 84:
+        raise _no_triangles(path, why, _short_binary(data))
+    corners, warning = _parse_binary(path, data)
+    return StlCorners(corners, data, False, why, warning)
 
 
-def mm2int(mm: NDArray[Any], name: str = "vertices") -> NDArray[np.int64]:
+def _no_triangles(path: Path, why: str, binary: str) -> MeshFileError:
+    """A file beginning with ``solid`` that neither type reads: both reasons."""
+    return MeshFileError(
+        f"'{path}' holds no triangles. As ASCII (it begins with 'solid'): {why}. "
+        f"As binary (CuraEngine's fallback): {binary}")
+
+
+def mm2int(
+    mm: NDArray[Any], name: str = "vertices",
+    where: Callable[[int], str] = lambda c: f"corner {c} (triangle {c // 3})",
+) -> NDArray[np.int64]:
     """CuraEngine's ``MM2INT`` in double: ``trunc(x * 1000 + 0.5 * sign(x))``.
+
+    ``mm`` holds the corners (3F, 3); ``where(c)`` describes corner ``c`` in a
+    message (e.g. naming the file and the line).
 
     Raises
     ------
@@ -208,25 +242,15 @@ def mm2int(mm: NDArray[Any], name: str = "vertices") -> NDArray[np.int64]:
     if bad.size:
         i = int(bad[0])
         raise InputValueError(
-            f"`{name}` must be finite; got {float(x.ravel()[i])} at corner "
-            f"{i // 3} (triangle {i // 9})"
-        )
+            f"`{name}` must be finite; got {float(x.ravel()[i])} at {where(i // 3)}")
     um = np.trunc(x * 1000.0 + 0.5 * np.sign(x))
     big = np.flatnonzero(np.abs(um.ravel()) >= COORD_LIMIT)
     if big.size:
         i = int(big[0])
         raise InputValueError(
             f"`{name}` must be below {COORD_LIMIT / 1000:g} mm in magnitude (2**30 "
-            f"µm); got {float(x.ravel()[i])!r} mm at corner {i // 3} "
-            f"(triangle {i // 9})"
-        )
+            f"µm); got {float(x.ravel()[i])!r} mm at {where(i // 3)}")
     return um.astype(np.int64)
-
-
-def _trunc_div(a: NDArray[np.int64], b: int) -> NDArray[np.int64]:
-    """C integer division ``a / b`` (truncating toward zero), b > 0."""
-    q = np.abs(a) // b
-    return np.where(a < 0, -q, q)
 
 
 def meld(corners_um: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -246,13 +270,9 @@ def meld(corners_um: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.i
     """
     c = np.ascontiguousarray(corners_um, dtype=np.int64)
     n = c.shape[0]
-    q = _trunc_div(c + MELD_DISTANCE // 2, MELD_DISTANCE)
-    order = np.lexsort((q[:, 2], q[:, 1], q[:, 0])).astype(np.int64)
-    qs = q[order]
-    new_cell = np.ones(n, dtype=bool)
-    if n:
-        new_cell[1:] = (qs[1:] != qs[:-1]).any(axis=1)
-    cell_offsets = np.append(np.flatnonzero(new_cell), n).astype(np.int64)
+    # in short chunks of linear work (a lexsort of 3 million corners took 2.6 s,
+    # during which Ctrl-C waited)
+    order, cell_offsets = group_cells(c, MELD_DISTANCE, run=run_chunks)
     rep = meld_corners(c, order, cell_offsets, MELD_DISTANCE, run=run_chunks)
     created = rep == np.arange(n, dtype=np.int64)
     new_id = np.cumsum(created, dtype=np.int64) - 1
@@ -339,7 +359,18 @@ def load_mesh_cura(source: Any, scale: float) -> Any:
                 f"reader); got suffix '{path.suffix}'. Load it with "
                 "compat='vecslice', or pass a trimesh object"
             )
-        corners = read_stl_corners(path).astype(np.float64)
+        read = read_stl_corners(path)
+        if not read.not_ascii:
+            if read.warning:
+                warnings.warn(read.warning, VecsliceWarning, stacklevel=4)
+            return _mesh_from_file(read, scale, name)
+        try:  # a 'solid' file read as binary: its errors are the file's
+            mesh = _mesh_from_binary(read, scale, name)
+        except InputValueError as exc:
+            raise _no_triangles(path, read.not_ascii, str(exc)) from exc
+        if read.warning:
+            warnings.warn(read.warning, VecsliceWarning, stacklevel=4)
+        return mesh
     else:
         raise InputTypeError(
             "`path_or_trimesh` must be a file path, trimesh.Trimesh or "
@@ -347,10 +378,51 @@ def load_mesh_cura(source: Any, scale: float) -> Any:
         )
     if corners.shape[0] == 0:
         raise MeshFileError(f"'{name}' holds no triangles")
-    um = mm2int(corners * scale if scale != 1.0 else corners)
+    um = mm2int(corners * scale if scale != 1.0 else corners,
+                where=lambda c: f"corner {c} (triangle {c // 3}) of {name}")
+    return cura_mesh_from_corners(um, name)
+
+
+def _scaled(read: StlCorners, scale: float) -> NDArray[np.float64]:
+    corners = read.corners.astype(np.float64)
+    return corners * scale if scale != 1.0 else corners
+
+
+def _mesh_from_binary(read: StlCorners, scale: float, name: str) -> Any:
+    """The mesh of a file beginning with 'solid' that CuraEngine reads as binary.
+
+    Raises InputValueError with the binary reading's problem (the caller names
+    the file and adds why its ASCII gave no triangle).
+    """
+    n = read.corners.shape[0] // 3
+    if n == 0:
+        raise InputValueError(
+            f"it has no 50-byte triangle record after the 84-byte header (the file "
+            f"has {len(read.data)} bytes)")
+    um = mm2int(_scaled(read, scale),
+                where=lambda c: f"corner {c} (triangle {c // 3} of {n})")
+    return cura_mesh_from_corners(um, name)
+
+
+def _mesh_from_file(read: StlCorners, scale: float, name: str) -> Any:
+    """The mesh of an STL file: values named with the file (and line, if ASCII).
+
+    Raises
+    ------
+    InputValueError
+        If a value is not finite or too large (naming the file and the place).
+    MeshFileError
+        If there is no triangle, or every triangle collapses.
+    """
+    if read.corners.shape[0] == 0:
+        raise MeshFileError(f"'{name}' holds no triangles")
+
+    def where(c: int) -> str:
+        line = f", line {_vertex_line(read.data, c)}" if read.ascii else ""
+        return f"corner {c} (triangle {c // 3}{line}) of '{name}'"
+
+    um = mm2int(_scaled(read, scale), where=where)
     try:
         return cura_mesh_from_corners(um, name)
     except InputValueError as exc:
-        if name.startswith("trimesh"):
-            raise
         raise MeshFileError(f"'{name}': {exc}") from exc

@@ -320,3 +320,95 @@ def test_trimesh_faces_are_checked_on_the_copy_that_is_used(write_when_copied,
                        r"\[0, 4\); got 1000000000000 at face 3"):
         vs.load_mesh(tm, compat=compat)
     assert writes == [(3, 1)]
+
+
+# ---------------------------------------------------------------------------
+# messages name the file (audit D3/D14)
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("newline", "line"), [("\n", 12), ("\r\n", 12), ("\r", 12)])
+def test_bad_value_names_the_file_corner_and_line(tmp_path, newline, line):
+    text = _ascii([TRI[0], [(0, 0, 0), (1, 0, "inf"), (0, 1, 0)]], newline=newline)
+    path = _write(tmp_path, text, "bad value.stl")
+    with pytest.raises(vs.InputValueError, match=rf"`vertices` must be finite; got "
+                       rf"inf at corner 4 \(triangle 1, line {line}\) of "
+                       rf"'.*bad value\.stl'") as info:
+        vs.load_mesh(path, compat="cura")
+    assert isinstance(info.value, ValueError)
+    huge = _write(tmp_path, _ascii([[(0, 0, 0), (1, 0, 0), (0, 1, 2000)]]), "h.stl")
+    with pytest.raises(vs.InputValueError, match=r"got 2000000\.0 mm at corner 2 "
+                       r"\(triangle 0, line 6\) of '.*h\.stl'"):
+        vs.load_mesh(huge, compat="cura", scale=1000)
+
+
+def test_bad_binary_value_names_the_file():
+    tri = [TRI[0], [(0, 0, 0), (float("nan"), 0, 0), (0, 1, 0)]]
+    with pytest.raises(vs.InputValueError, match=r"`vertices` must be finite; got "
+                       r"nan at corner 4 \(triangle 1\) of '.*m\.stl'"):
+        vs.load_mesh(_write_tmp(_binary(tri)), compat="cura")
+
+
+def test_trimesh_bad_value_names_the_source():
+    tm = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, np.inf, 0]], [[0, 1, 2]],
+                         process=False)
+    with pytest.raises(vs.InputValueError, match=r"got inf at corner 2 \(triangle "
+                       r"0\) of trimesh\.Trimesh"):
+        vs.load_mesh(tm, compat="cura")
+
+
+def _write_tmp(data, name="m.stl"):
+    import tempfile
+
+    return _write(Path(tempfile.mkdtemp()), data, name)
+
+
+NO_VERTEX = "no line starts with 'vertex'"
+
+
+@pytest.mark.parametrize(
+    ("text", "ascii_reason", "binary_reason"),
+    [
+        ("solid x\nendsolid x\n", NO_VERTEX,
+         "a binary STL needs an 84-byte header; the file has 19 bytes"),
+        ("solid x\n" + "facet normal 0 0 1\n" * 6 + "endsolid x\n", NO_VERTEX,
+         "it has no 50-byte triangle record after the 84-byte header \\(the file "
+         "has 133 bytes\\)"),
+        ("solid x\n" + "this is not a vertex line at all\n" * 20, NO_VERTEX,
+         "`vertices` must be below .* at corner 0 \\(triangle 0 of 11\\)"),
+        ("solid x\n  vertex 1,5 2 3\n", "line 2 \\('vertex 1,5 2 3'\\) is not "
+         "'vertex' and three numbers as CuraEngine reads them \\(sscanf \" vertex %f "
+         "%f %f\"\\)", "a binary STL needs an 84-byte header"),
+        ("solid x\n  vertex 1 2 3\n\tvertex 1 2 3e+x\n  vertex 1 2\n", "it has 2 "
+         "vertex lines, fewer than a triangle's 3; line 4 \\('vertex 1 2'\\) is not .*",
+         "a binary STL needs an 84-byte header"),
+        ("solid x\n  vertex 1 2 3\n  vertex 1 2 3\nendsolid\n", "it has 2 vertex "
+         "lines, fewer than a triangle's 3", "a binary STL needs an 84-byte header"),
+        ("SOLID X\r\n" + "  VERTEX 1 2 3\r\n" * 3 + "x" * 100, "its vertex lines are "
+         "not in lower case \\(line 2: 'VERTEX 1 2 3'\\); CuraEngine reads only "
+         "'vertex' \\(compat='vecslice' any case\\)", "`vertices` must be below"),
+    ],
+    ids=["short", "no records", "garbage", "unreadable numbers", "one unreadable",
+         "two vertices", "upper case"],
+)
+def test_ascii_without_triangles_says_why(tmp_path, text, ascii_reason,
+                                          binary_reason):
+    # a file beginning with 'solid' whose ASCII gives no triangle is read as
+    # binary (CuraEngine's fallback); when that fails too, both reasons are given,
+    # as a MeshFileError (the header's count is not warned about)
+    path = _write(tmp_path, text, "t.stl")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(vs.MeshFileError, match=rf"'.*t\.stl' holds no triangles\. "
+                           rf"As ASCII \(it begins with 'solid'\): {ascii_reason}\. "
+                           rf"As binary \(CuraEngine's fallback\): {binary_reason}"
+                           ) as info:
+            vs.load_mesh(path, compat="cura")
+    assert isinstance(info.value, OSError)
+
+
+def test_binary_with_solid_header_and_wrong_count_still_warns(tmp_path):
+    data = _binary(TRI, header=b"solid exported as binary", count=5)
+    with pytest.warns(vs.VecsliceWarning, match="announces 5 triangles"):
+        mesh = vs.load_mesh(_write(tmp_path, data), compat="cura")
+    assert mesh.n_faces == 2
