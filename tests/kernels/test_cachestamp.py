@@ -60,9 +60,14 @@ def test_no_writable_cache_directory_compiles_uncached(tmp_path):
     import sys
 
     import vecslice
+    import vecslice._kernels
 
+    # the package and its kernels (which an editable install maps from kernels/)
     pkg = tmp_path / "site"
     shutil.copytree(Path(vecslice.__file__).parent, pkg / "vecslice",
+                    ignore=shutil.ignore_patterns("__pycache__", "_kernels"))
+    shutil.copytree(Path(vecslice._kernels.__file__).parent,
+                    pkg / "vecslice" / "_kernels",
                     ignore=shutil.ignore_patterns("__pycache__"))
     (pkg / "vecslice" / "_kernels" / "__pycache__").write_text("a file")
     env = {k: v for k, v in os.environ.items()
