@@ -209,6 +209,10 @@ def clean_mesh(vertices, faces, merge, run=run_serial):
     unused vertices are removed. The passes over the faces go in chunks to
     ``run`` (as :func:`merge_vertices`).
 
+    Where nothing changes (no position repeated, no degenerate face, every vertex
+    used) the arrays given are returned themselves, not copies: a clean mesh,
+    the usual input, costs no new arrays (and no fresh pages to fault in).
+
     Preconditions: 0 <= faces < len(vertices).
     """
     n_v = vertices.shape[0]
@@ -230,6 +234,8 @@ def clean_mesh(vertices, faces, merge, run=run_serial):
     run(mark, bounds)
     np.cumsum(deg, out=deg)
     n_deg = int(deg[n_chunks])
+    if n_groups == n_v and n_deg == 0 and used[:n_groups].all():
+        return vertices, faces, 0, 0, 0  # every group is its own vertex, all used
     # groups are in order of their first vertex: numbering the used ones in group
     # order keeps the original vertex order
     out_v, n_kept = _kept_vertices(vertices, first, used)

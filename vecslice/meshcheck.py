@@ -91,8 +91,9 @@ def clean_arrays(
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], int, int, int]:
     """Merge equal positions, drop repeated-index faces and unused vertices.
 
-    Kept vertices stay in order of first occurrence, so a clean mesh is unchanged.
-    One hashed pass over the vertices and two over the faces (kernels, in chunks
+    Kept vertices stay in order of first occurrence, so a clean mesh is unchanged
+    (and then the arrays given are returned themselves: pass private copies where
+    the results must not share memory with the caller's). One hashed pass over the vertices and two over the faces (kernels, in chunks
     on threads). Returns
     ``(vertices, faces, n_merged, n_unused, n_degenerate)``.
     """

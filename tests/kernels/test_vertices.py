@@ -74,3 +74,20 @@ def test_clean_mesh_in_chunks_matches_the_sorting_merge(run, merge):
     assert got[1].tolist() == ref[1].tolist()
     assert list(got[2:]) == list(ref[2:])
     assert got[4] > 28_000 and (got[2] > 100_000) == merge
+
+
+@pytest.mark.parametrize("merge", [True, False])
+def test_clean_mesh_returns_a_clean_mesh_itself(merge):
+    # nothing merged, dropped or unused: the arrays given come back, not copies
+    # (no new arrays to allocate and fault in); any change gives new arrays
+    v = np.array([[0, 0, 0], [9, 0, 0], [0, 9, 0], [0, 0, 9]], dtype=np.int64)
+    f = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], dtype=np.int64)
+    got = clean_mesh(v, f, merge)
+    assert got[0] is v and got[1] is f and list(got[2:]) == [0, 0, 0]
+    v_dup = np.vstack([v, v[:1]])  # an unused vertex (a repeated one with merge)
+    got = clean_mesh(v_dup, f, merge)
+    assert got[0] is not v_dup and got[0].tolist() == v.tolist()
+    assert got[1] is not f and got[1].tolist() == f.tolist()
+    f_deg = np.vstack([f, [[0, 0, 1]]])  # a degenerate face
+    got = clean_mesh(v, f_deg, merge)
+    assert got[1].tolist() == f.tolist() and got[4] == 1

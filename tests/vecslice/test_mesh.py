@@ -744,3 +744,18 @@ def test_load_mesh_hands_its_own_arrays_over_without_a_copy(meshes_dir, monkeypa
     tm = trimesh.creation.box((10, 10, 10))
     vs.load_mesh(tm, repair=False)
     assert copied == [tm.faces.shape]  # a trimesh's faces are its own: copied
+
+
+def test_from_arrays_of_a_clean_mesh_keeps_its_own_copies():
+    # a clean mesh's cleaning returns the arrays it was given: from_arrays gives
+    # it private copies, so the caller's arrays stay the caller's (and writable)
+    v, f = _tetra_arrays()
+    mesh = vs.Mesh.from_arrays(v, f)
+    assert mesh.load_info.vertices_merged == mesh.load_info.faces_degenerate == 0
+    assert not np.shares_memory(mesh.vertices, v)
+    assert not np.shares_memory(mesh.faces, f)
+    assert v.flags.writeable and f.flags.writeable
+    before = mesh.vertices.tolist(), mesh.faces.tolist()
+    v[0] = [7, 7, 7]
+    f[0] = f[0, ::-1]
+    assert (mesh.vertices.tolist(), mesh.faces.tolist()) == before
