@@ -93,8 +93,8 @@ def clean_arrays(
 
     Kept vertices stay in order of first occurrence, so a clean mesh is unchanged
     (and then the arrays given are returned themselves: pass private copies where
-    the results must not share memory with the caller's). One hashed pass over the vertices and two over the faces (kernels, in chunks
-    on threads). Returns
+    the results must not share memory with the caller's). One hashed pass over
+    the vertices and two over the faces (kernels, in chunks on threads). Returns
     ``(vertices, faces, n_merged, n_unused, n_degenerate)``.
     """
     v2, f2, n_merged, n_unused, n_deg = clean_mesh(
