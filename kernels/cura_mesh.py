@@ -63,33 +63,33 @@ _U64_1D_W = types.uint64[::1]
 def _hash_range(corners, reach, pbits, size, c0, c1, out_hash, out_hist):
     """The cell hash of corners ``c0:c1``, counted by partition.
 
-    A corner's partition is its hash's top ``pbits`` bits; the counts go to row
-    ``c0 // size`` of ``out_hist`` (zero on entry).
+    A corner's partition is its hash's top ``pbits`` bits; the counts go to
+    column ``c0 // size`` of ``out_hist`` (a row per partition, zero on entry).
     """
-    row = c0 // size
+    col = c0 // size
     shift = np.uint64(64 - pbits) if pbits > 0 else np.uint64(63)
     for i in range(c0, c1):
         qx, qy, qz = _cell(corners, i, reach)
         h = _cell_hash(qx, qy, qz)
         out_hash[i] = h
-        out_hist[row, np.int64(h >> shift) if pbits > 0 else 0] += 1
+        out_hist[np.int64(h >> shift) if pbits > 0 else 0, col] += 1
 
 
 @kernel(types.void(_U64_1D, I64, I64, I64, I64, I64_2D_W, I64_1D_W, _U64_1D_W))
 def _scatter_range(hashes, pbits, size, c0, c1, io_pos, out_order, out_hash):
     """Corners ``c0:c1`` (and their hashes) to their partitions' slots, in order.
 
-    Row ``c0 // size`` of ``io_pos`` holds this chunk's next slot in each
-    partition.
+    Column ``c0 // size`` of ``io_pos`` (a row per partition) holds this
+    chunk's next slot in each partition.
     """
-    row = c0 // size
+    col = c0 // size
     shift = np.uint64(64 - pbits) if pbits > 0 else np.uint64(63)
     for i in range(c0, c1):
         h = hashes[i]
         p = np.int64(h >> shift) if pbits > 0 else 0
-        out_order[io_pos[row, p]] = i
-        out_hash[io_pos[row, p]] = h
-        io_pos[row, p] += 1
+        out_order[io_pos[p, col]] = i
+        out_hash[io_pos[p, col]] = h
+        io_pos[p, col] += 1
 
 
 @kernel(types.void(I64_2D, I64, I64_1D, I64_1D, _U64_1D, I64, I64, I64_1D_W, B1_1D_W))
@@ -179,13 +179,18 @@ def group_cells(corners, reach, run=run_serial):
     n_parts = 1 << pbits
     bounds = even_chunks(n, _HASH_CHUNK)
     hashes = np.empty(n, dtype=np.uint64)
-    hist = np.zeros((max(len(bounds) - 1, 1), n_parts), dtype=np.int64)
+    hist = np.zeros((n_parts, max(len(bounds) - 1, 1)), dtype=np.int64)
     run(lambda c0, c1: _hash_range(corners, reach, pbits, _HASH_CHUNK, c0, c1, hashes,
                                    hist), bounds)
-    # partition-major, chunk-minor: each chunk's slots in each partition
-    counts = hist.T.ravel()
-    pos = (np.cumsum(counts) - counts).reshape(n_parts, -1).T.copy()
-    part_offsets = np.append(pos[0], np.int64(n))
+    # partition-major, chunk-minor: each chunk's first slot in each partition,
+    # the exclusive prefix sum of the counts in that order (no other temporary:
+    # the table grows as corners squared, 0.6 GB at the reader's limit)
+    pos = np.empty_like(hist)
+    flat = pos.reshape(-1)
+    flat[0] = 0
+    np.cumsum(hist.reshape(-1)[:-1], out=flat[1:])
+    hist = None  # freed before the scatter's arrays are made
+    part_offsets = np.append(pos[:, 0], np.int64(n))
     by_part = np.empty(n, dtype=np.int64)
     part_hash = np.empty(n, dtype=np.uint64)
     run(lambda c0, c1: _scatter_range(hashes, pbits, _HASH_CHUNK, c0, c1, pos,

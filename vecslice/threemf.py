@@ -35,7 +35,7 @@ from __future__ import annotations
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, BinaryIO
+from typing import Any, BinaryIO
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,9 +53,6 @@ from vecslice._threemf_model import (
 )
 from vecslice._zipread import InflationError, MemberDataError, inflate
 from vecslice.errors import MeshFileError
-
-if TYPE_CHECKING:
-    pass
 
 __all__ = ["MAX_BUILD_TRIANGLES", "MAX_BUILD_VERTICES", "MAX_COMPRESSION_RATIO",
            "MAX_EXPANDED_TRIANGLES", "MAX_INSTANCES", "MAX_MODEL_BYTES",
