@@ -22,7 +22,7 @@ from numba import types
 from ._jit import kernel, run_serial
 from ._types import B1_1D, B1_1D_OUT, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 from .crossings import DOWN_EDGE, UP_EDGE
-from .sorting import stable_argsort
+from .sorting import lower_bound, stable_argsort
 
 _OUT = types.Tuple(
     (I64_2D_OUT, I64_1D_OUT, I64_1D_OUT, I64_2D_OUT, I64_1D_OUT, I64_1D_OUT)
@@ -111,15 +111,7 @@ def _paired(in_seg, in_pair, out_face, s):
 
     ``s`` is one of ``in_seg`` (sorted, distinct): found by binary search.
     """
-    lo = 0
-    hi = in_seg.shape[0]
-    while lo < hi:
-        mid = (lo + hi) >> 1
-        if in_seg[mid] < s:
-            lo = mid + 1
-        else:
-            hi = mid
-    j = in_pair[lo]
+    j = in_pair[lower_bound(in_seg, 0, in_seg.shape[0], s)]
     return -1 if j < 0 else out_face[j]
 
 

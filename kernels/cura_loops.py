@@ -21,6 +21,7 @@ from ._types import (
     I64_2D_W,
 )
 from .cura_segments import segment_of
+from .sorting import lower_bound
 
 # CuraEngine's largest_neglected_gap_first_phase = MM2INT(0.01)
 FIRST_PHASE_GAP = 10
@@ -185,14 +186,7 @@ def _next_at_hub(points, added, cur, start, lo, hi, hub_cands, io_skip):
     """
     ex = points[cur, 2]
     ey = points[cur, 3]
-    a = lo
-    b = hi
-    while a < b:
-        m = (a + b) >> 1
-        if hub_cands[m] < start:
-            a = m + 1
-        else:
-            b = m
+    a = lower_bound(hub_cands, lo, hi, start)
     if a < hi and hub_cands[a] == start and _shorter_than(
             ex - points[start, 0], ey - points[start, 1], FIRST_PHASE_GAP):
         return start

@@ -16,6 +16,7 @@ from numba import types
 from ._jit import cost_chunks, even_chunks, kernel, run_serial
 from ._types import B1_1D_W, I64, I64_1D, I64_1D_OUT, I64_1D_W, I64_2D, I64_2D_W
 from .geometry import tdiv
+from .sorting import table_bits
 
 _TWO_PI = 2.0 * np.pi
 _MELD_CHUNK = 1 << 16  # corners per chunk of cells to meld
@@ -106,10 +107,8 @@ def _group_range(corners, reach, part_offsets, by_part, part_hash, p0, p1,
     m_max = 0
     for p in range(p0, p1):
         m_max = max(m_max, part_offsets[p + 1] - part_offsets[p])
-    tbits = 1
-    while (np.int64(1) << tbits) < 2 * m_max:
-        tbits += 1
-    table = np.full(np.int64(1) << tbits, -1, dtype=np.int64)  # a cell per slot
+    # a cell per slot, for the largest partition
+    table = np.full(np.int64(1) << table_bits(m_max), -1, dtype=np.int64)
     first = np.empty(m_max, dtype=np.int64)  # the slot of each cell's first corner
     cell_of = np.empty(m_max, dtype=np.int64)
     fill = np.empty(m_max + 1, dtype=np.int64)
@@ -118,10 +117,7 @@ def _group_range(corners, reach, part_offsets, by_part, part_hash, p0, p1,
         m = part_offsets[p + 1] - start
         if m == 0:
             continue
-        tb = 1
-        while (np.int64(1) << tb) < 2 * m:
-            tb += 1
-        mask = (np.int64(1) << tb) - 1
+        mask = (np.int64(1) << table_bits(m)) - 1
         table[: mask + 1] = -1
         n_cells = 0
         fill[0] = 0

@@ -1,8 +1,11 @@
-"""A stable argsort kernel: numpy's result, at a fraction of numpy's compile time.
+"""A stable argsort kernel, and the small search helpers other kernels share.
 
 ``np.argsort(kind="mergesort")`` inside a kernel costs numba over a second to
 compile at every first use; this plain bottom-up merge sort compiles once, in a
 fraction of that, and returns the same permutation (the stable order).
+
+:func:`lower_bound` (a binary search) and :func:`table_bits` (the size of an
+open-addressing hash table) are inlined into the kernels that call them.
 """
 
 import numpy as np
@@ -11,9 +14,36 @@ from numba import types
 from ._jit import kernel
 from ._types import I64, I64_1D, I64_1D_OUT
 
-__all__ = ["stable_argsort"]
+__all__ = ["lower_bound", "stable_argsort", "table_bits"]
 
 _RUN = 16  # runs of this length are sorted by insertion first
+
+
+@kernel(inline="always")
+def lower_bound(a, lo, hi, x):
+    """The first ``i`` in ``lo:hi`` with ``a[i] >= x`` (``hi`` if none).
+
+    ``a[lo:hi]`` ascends.
+    """
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if a[mid] < x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@kernel(inline="always")
+def table_bits(m):
+    """The fewest bits ``b >= 1`` with ``2**b >= 2 * m``.
+
+    A hash table of ``2**b`` slots for ``m`` keys is at most half full.
+    """
+    b = 1
+    while (np.int64(1) << b) < 2 * m:
+        b += 1
+    return b
 
 
 @kernel(types.void(I64_1D, I64_1D, types.int64[::1], I64))

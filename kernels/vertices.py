@@ -5,6 +5,7 @@ from numba import types
 
 from ._jit import kernel, run_serial
 from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+from .sorting import table_bits
 
 # odd 64-bit multipliers (from splitmix64 and the golden ratio) mixing x, y, z
 _MIX_X = np.int64(-7046029254386353131)  # 0x9E3779B97F4A7C15
@@ -74,10 +75,7 @@ def _match_partitions(vertices, part_offsets, order, hashes, pbits, p0, p1, out_
         m = part_offsets[p + 1] - start
         if m == 0:
             continue
-        tbits = 1
-        while (np.int64(1) << tbits) < 2 * m:
-            tbits += 1
-        mask = (np.int64(1) << tbits) - 1
+        mask = (np.int64(1) << table_bits(m)) - 1
         table = np.full(mask + 1, -1, dtype=np.int64)  # positions q in order
         for q in range(start, start + m):
             i = order[q]

@@ -19,3 +19,25 @@ def test_stable_argsort_of_long_runs_of_ties_and_reversed_keys():
                 np.zeros(1_000, dtype=np.int64), rng.integers(-9, 9, 33)):
         key = key.astype(np.int64)
         assert stable_argsort(key).tolist() == np.argsort(key, kind="stable").tolist()
+
+
+@given(st.lists(st.integers(-50, 50), max_size=40), st.integers(-60, 60),
+       st.integers(0, 45), st.integers(0, 45))
+def test_lower_bound_is_bisect_left(values, x, lo, hi):
+    import bisect
+
+    from vecslice._kernels.sorting import lower_bound
+
+    a = np.array(sorted(values), dtype=np.int64)
+    lo, hi = min(lo, len(a)), min(hi, len(a))
+    hi = max(lo, hi)
+    assert lower_bound(a, lo, hi, x) == bisect.bisect_left(a.tolist(), x, lo, hi)
+
+
+@given(st.integers(0, 2**40))
+def test_table_bits_is_the_fewest_bits_for_a_half_full_table(m):
+    from vecslice._kernels.sorting import table_bits
+
+    b = table_bits(m)
+    assert b >= 1 and 2**b >= 2 * m
+    assert b == 1 or 2 ** (b - 1) < 2 * m
