@@ -356,10 +356,20 @@ def _line_of(data: bytes, offset: int) -> int:
     return data.count(b"\n", 0, offset) + 1
 
 
-def _obj_face(data: bytes, k: int) -> str:
-    """'face k+1 (line L)' for the k-th face line of an OBJ file."""
+def _obj_line(data: bytes, joins: NDArray[np.int64], offset: int) -> int:
+    """The line of the file (1-based) that ``data[offset]`` is on.
+
+    ``data`` is the file with its continuations joined; ``joins`` are where in
+    ``data`` each joined two lines of the file (sorted), so the lines before
+    ``offset`` are its line ends plus the joins before it.
+    """
+    return _line_of(data, offset) + int(np.searchsorted(joins, offset))
+
+
+def _obj_face(data: bytes, joins: NDArray[np.int64], k: int) -> str:
+    """'face k+1 (line L)' for the k-th face line of an OBJ file (see _obj_line)."""
     m = next(islice(_OBJ_F.finditer(data), k, None))
-    return f"face {k + 1} (line {_line_of(data, m.start())})"
+    return f"face {k + 1} (line {_obj_line(data, joins, m.start())})"
 
 
 def _obj_defined_before(data: bytes) -> NDArray[np.int64]:
@@ -380,7 +390,12 @@ def _read_obj(path: Path, size: int) -> Arrays:
     data = path.read_bytes()
     if b"\r" in data:  # lines end at CR LF, CR (old Mac) or LF alike
         data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
-    if b"\\\n" in data:  # line continuations
+    joins = np.empty(0, dtype=np.int64)
+    if b"\\\n" in data:  # line continuations: each joins two lines into one
+        c = np.frombuffer(data, dtype=np.uint8)
+        at = np.flatnonzero(c[:-1] == 0x5C)  # backslashes (they never overlap)
+        at = at[c[at + 1] == 0x0A]
+        joins = at - np.arange(at.shape[0])  # where each is once joined
         data = data.replace(b"\\\n", b" ")
     rows = _OBJ_V.findall(data)
     if len(rows) != len(_OBJ_V_LINE.findall(data)):
@@ -388,7 +403,7 @@ def _read_obj(path: Path, size: int) -> Arrays:
         at = next(m.start() for m in _OBJ_V_LINE.finditer(data)
                   if m.start() not in good)
         raise MeshFileError(
-            f"'{path}' is corrupt: line {_line_of(data, at)} defines a vertex "
+            f"'{path}' is corrupt: line {_obj_line(data, joins, at)} defines a vertex "
             "without three coordinates"
         )
     n_v = len(rows)
@@ -407,7 +422,7 @@ def _read_obj(path: Path, size: int) -> Arrays:
         if lone is not None:  # numpy would not see it, once the suffixes are gone
             k = body.count(b"\n", 0, lone.start())
             raise MeshFileError(
-                f"'{path}' is corrupt: {_obj_face(data, k)} has corner "
+                f"'{path}' is corrupt: {_obj_face(data, joins, k)} has corner "
                 f"{_quoted(lone.group())}; a corner starts with its vertex index (v, "
                 "v/vt, v//vn or v/vt/vn)")
         body = _OBJ_SLASH.sub(b"", body)
@@ -419,7 +434,7 @@ def _read_obj(path: Path, size: int) -> Arrays:
     short = np.flatnonzero(counts < 3)
     if short.size:
         k = int(short[0])
-        raise MeshFileError(f"'{path}' is corrupt: {_obj_face(data, k)} has "
+        raise MeshFileError(f"'{path}' is corrupt: {_obj_face(data, joins, k)} has "
                             f"{counts[k]} vertices; a face needs at least 3")
     n_tri = int(counts.sum()) - 2 * counts.shape[0]  # fans, before they are made
     if n_tri > MAX_TRIANGLES:
@@ -430,8 +445,8 @@ def _read_obj(path: Path, size: int) -> Arrays:
         toks = body.split()
         k = next((i for i, t in enumerate(toks) if not _INT.fullmatch(t)), 0)
         raise MeshFileError(
-            f"'{path}' is corrupt: {_obj_face(data, int(face_of[k]))} has vertex "
-            f"index {_quoted(toks[k])}; expected an integer")
+            f"'{path}' is corrupt: {_obj_face(data, joins, int(face_of[k]))} has "
+            f"vertex index {_quoted(toks[k])}; expected an integer")
     res = idx - 1
     neg = idx < 0
     if neg.any():  # relative: vertices defined before the face line
@@ -450,8 +465,8 @@ def _read_obj(path: Path, size: int) -> Arrays:
                    "before it")
         else:
             why = f"the file has {n_v} vertices"
-        raise MeshFileError(f"'{path}' is corrupt: {_obj_face(data, face)} refers "
-                            f"to vertex {text}; {why}")
+        raise MeshFileError(f"'{path}' is corrupt: {_obj_face(data, joins, face)} "
+                            f"refers to vertex {text}; {why}")
     return v, fan_triangles(counts, res)
 
 

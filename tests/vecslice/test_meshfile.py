@@ -276,6 +276,27 @@ def test_obj_polygons_slashes_comments_and_continuations(tmp_path):
     assert vs.check_mesh(m).zero_area_faces == 0
 
 
+@pytest.mark.parametrize(("text", "match"), [
+    # a continuation inside a face: the face is named by the line it starts on
+    (V3 + "v 0 0 \\\n1\nf 1 2 \\\n 3\nf 1 2 9\n",
+     r"face 2 \(line 8\) refers to vertex 9"),
+    (V3 + "f 1 2 \\\n 3 \\\n 1\nf 1 2 \\\n q\n",
+     r"face 2 \(line 7\) has vertex index 'q'"),
+    (V3 + "f 1 \\\r\n 2 3\r\nf 1\r\n",
+     r"face 2 \(line 6\) has 1 vertices"),
+    (V3 + "f 1 2 \\\n 3\nv 0 \\\n 1\nf 1 2 3\n",
+     r"line 6 defines a vertex without three coordinates"),
+    (V3 + "f 1 2 \\\n 3\nf 1 2 \\\n 0\n",
+     r"face 2 \(line 6\) refers to vertex 0"),
+    (V3 + "f 1 2 \\\n 3\nf /1 2 3\n", r"face 2 \(line 6\) has corner '/1'"),
+])
+def test_obj_lines_after_continuations_are_numbered_as_in_the_file(tmp_path, text,
+                                                                     match):
+    """A ``\\`` continuation joins two lines of the file, which still count as
+    two: messages named a line one too low per continuation before it."""
+    refused(write(tmp_path, "c.obj", text), r"c\.obj' is corrupt: " + match)
+
+
 def test_obj_matches_trimesh_on_the_shared_meshes(meshes_dir):
     import trimesh
 
