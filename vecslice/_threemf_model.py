@@ -26,6 +26,9 @@ if TYPE_CHECKING:
     from vecslice.threemf import _Package
 
 Key = tuple[str, int]  # (model part, object id)
+# a reference: (the key of the object whose component it is, or None for a
+# build item; the index of the component or item)
+At = tuple[Key | None, int]
 _PRODUCTION = "http://schemas.microsoft.com/3dmanufacturing/production/2015/06"
 
 _IDENTITY = np.eye(4)
@@ -123,8 +126,16 @@ def _object_id(text: str) -> int | None:
     return n if n <= _ID_MAX else None
 
 
-def _ref(pkg: _Package, attrib: dict[str, str], part: str, where: str) -> Key:
-    """(part, object id) an item or component refers to."""
+def _ref(pkg: _Package, attrib: dict[str, str], part: str, where: str,
+         at: At) -> Key:
+    """(part, object id) an item or component of model part ``part`` refers to.
+
+    ``at`` names the reference for :func:`_written`. The few references whose
+    spelling their key does not give back (an id with leading zeros; a
+    ``p:path`` that is not ``'/'`` and the part's name in the package, that
+    names the referring part itself, or a part the package lacks) are kept as
+    written in ``pkg.spelled``: a message names them as the file does.
+    """
     oid = attrib.get("objectid")
     if oid is None:
         raise pkg.fail(f"{where} has no objectid")
@@ -134,7 +145,26 @@ def _ref(pkg: _Package, attrib: dict[str, str], part: str, where: str) -> Key:
                        f"number from 0 to {_ID_MAX}")
     target = attrib.get(f"{{{_PRODUCTION}}}path")
     key = (_norm(target) if target else part, n)
+    info = pkg.members.get(key[0]) if target else None
+    if oid != str(n) or (target and (key[0] == part or info is None
+                                     or target != "/" + info.filename)):
+        spelled = (oid, target)  # one tuple per spelling, not per reference
+        pkg.spelled[at] = pkg.spellings.setdefault(spelled, spelled)
     return pkg.keys.setdefault(key, key)  # one tuple per object, not per reference
+
+
+def _written(pkg: _Package, key: Key, at: At) -> tuple[str, str | None]:
+    """The objectid and ``p:path`` (None: none) of reference ``at`` as written.
+
+    ``at`` is (the key of the object whose component it is, or None for a
+    build item; the component's or item's index); ``key`` what it refers to.
+    """
+    spelled = pkg.spelled.get(at)
+    if spelled is not None:
+        return spelled
+    part = pkg.root if at[0] is None else at[0][0]  # where the reference is
+    return str(key[1]), (None if key[0] == part else
+                         "/" + pkg.members[key[0]].filename)
 
 
 # each list of a <mesh>: (its element, attributes, number type, wording, limit name)
@@ -206,7 +236,8 @@ class _ModelReader(_Target):
         elif local == "item" and self.build and self.root:
             pkg = self.pkg
             where = f"build item {len(pkg.items) + 1:,}"
-            pkg.items.append(pkg.placement(attrib, self.part, where))
+            pkg.items.append(pkg.placement(attrib, self.part, where,
+                                           (None, len(pkg.items))))
         if not self.objects or local in ("object", "build", "item"):
             return
         grand = stack[-3] if len(stack) >= 3 else ""
@@ -222,7 +253,8 @@ class _ModelReader(_Target):
         elif local == "component" and parent == "components" and grand == "object":
             pkg = self.pkg
             cw = f"component {len(obj.components):,} of {obj.where}"
-            obj.components.append(pkg.placement(attrib, self.part, cw))
+            obj.components.append(pkg.placement(attrib, self.part, cw,
+                                                (obj.key, len(obj.components))))
 
     def end(self, tag: str) -> None:
         local = tag[tag.rfind("}") + 1:]

@@ -43,13 +43,16 @@ from numpy.typing import NDArray
 from vecslice._threemf_model import (
     _IDENTITY,
     _PRODUCTION,
+    At,
     Key,
     _ModelReader,
     _norm,
     _Object,
     _ref,
+    _shown,
     _Target,
     _transform,
+    _written,
 )
 from vecslice._zipread import InflationError, MemberDataError, inflate
 from vecslice.errors import MeshFileError
@@ -74,8 +77,10 @@ MAX_INSTANCES = 1_000_000
 
 Also the most ``<item>`` and ``<component>`` elements a 3MF may hold, all parts
 together: each places an object at least once, and each is kept (with its
-object, about 130 bytes, 370 with a transform) until the build is expanded,
-so they are counted as they are read and the one past the limit is refused.
+object, about 130 bytes, 370 with a transform, about 120 more if its objectid or
+``p:path`` is spelt otherwise than usual, kept for messages) until the build is
+expanded, so they are counted as they are read and the one past the limit is
+refused.
 """
 
 MAX_OBJECTS = 100_000
@@ -157,6 +162,11 @@ class _Package:
     n_objects: int = 0  # <object> elements read so far
     # one key tuple per referenced object, shared by its references
     keys: dict[Key, Key] = field(default_factory=dict)
+    # (objectid, p:path) as written of the references their key does not
+    # spell back (see _ref)
+    spelled: dict[At, tuple[str, str | None]] = field(default_factory=dict)
+    spellings: dict[tuple[str, str | None], tuple[str, str | None]] = field(
+        default_factory=dict)
     # the limits of this module when the read began (read by _ModelReader)
     limits: dict[str, int] = field(default_factory=dict)
     # vertices and triangles of every object read so far (placed or not)
@@ -166,9 +176,12 @@ class _Package:
     def fail(self, what: str) -> MeshFileError:
         return MeshFileError(f"'{self.path}': {what}")
 
-    def placement(self, attrib: dict[str, str], part: str,
-                  where: str) -> tuple[Key, NDArray[np.float64]]:
+    def placement(self, attrib: dict[str, str], part: str, where: str,
+                  at: At) -> tuple[Key, NDArray[np.float64]]:
         """The (object, transform) of an ``<item>`` or ``<component>``, counted.
+
+        ``part`` is the model part it is in, ``at`` which one it is (see
+        :func:`vecslice._threemf_model._written`).
 
         Each one places an object at least once, so more than
         :data:`MAX_INSTANCES` of them are refused as they are read, before they
@@ -180,7 +193,7 @@ class _Package:
                 f"the 3MF holds more than {MAX_INSTANCES:,} build items and "
                 f"components ({where} is one more); vecslice reads at most "
                 f"{MAX_INSTANCES:,} (vecslice.threemf.MAX_INSTANCES)")
-        return (_ref(self, attrib, part, where),
+        return (_ref(self, attrib, part, where, at),
                 _transform(self, attrib.get("transform"), where))
 
     def member(self, key: str, name: str, *, limit: int) -> zipfile.ZipInfo:
@@ -335,33 +348,44 @@ def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
     def children(key: Key) -> list[tuple[Key, NDArray[np.float64]]]:
         return pkg.objects[key].components
 
-    def check(key: Key, where: str) -> None:
+    def check(key: Key, at: At) -> None:
+        """Read the part ``key`` is in, if need be; refuse a missing ``key``.
+
+        ``at``: the reference to it, named in a message as the file writes it.
+        """
+        if key in pkg.objects:
+            return
+        holder, k = at
+        where = f"build item {k + 1:,}" if holder is None else (
+            f"component {k:,} of object {holder[1]}" + (
+                "" if holder[0] == pkg.root else
+                f" of '{pkg.members[holder[0]].filename}'"))
+        oid, target = _written(pkg, key, at)
         if key[0] not in pkg.parsed:
             if key[0] not in pkg.members:
-                raise pkg.fail(f"{where} refers to part '{key[0]}', which the "
-                               "package does not contain")
+                raise pkg.fail(f"{where} refers to part {_shown(target or '', 200)} "
+                               "(p:path), which the package does not contain")
             _parse_part(pkg, key[0], pkg.members[key[0]].filename, root=False)
         if key not in pkg.objects:
-            part = ("" if key[0] == pkg.root else
-                    f" of part '{pkg.members[key[0]].filename}'")
-            raise pkg.fail(f"{where} refers to object {key[1]}{part}, which is not "
+            of = f" of part {_shown(target, 200)}" if target else ""
+            raise pkg.fail(f"{where} refers to object {oid}{of}, which is not "
                            "defined")
 
     tri: dict[Key, int] = {}
     vert: dict[Key, int] = {}
     inst: dict[Key, int] = {}
     for n, (key, _) in enumerate(pkg.items):
-        check(key, f"build item {n + 1:,}")
+        check(key, (None, n))
         if key in tri:
             continue
         # the objects on the path from the item: in order (the stack) and as a
         # set, so a cycle check costs one lookup, not a walk along the path
-        stack = [(key, iter(children(key)))]
+        stack = [(key, enumerate(children(key)))]
         active = {key}
         while stack:
             node, it = stack[-1]
-            child = next(it, None)
-            if child is None:
+            nxt = next(it, None)
+            if nxt is None:
                 stack.pop()
                 active.discard(node)
                 o = pkg.objects[node]
@@ -374,15 +398,15 @@ def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
                                          else 0) + sum(vert[c] for c, _ in kids))
                 inst[node] = min(_MANY, 1 + sum(inst[c] for c, _ in kids))
                 continue
-            ck = child[0]
-            check(ck, f"a component of object {node[1]}")
+            i, (ck, _) = nxt
+            check(ck, (node, i))
             if ck in active:
                 path = [k for k, _ in stack]
                 loop = " -> ".join(str(k[1]) for k in path[path.index(ck):])
                 raise pkg.fail(f"3MF components form a cycle: objects {loop} -> "
                                f"{ck[1]}")
             if ck not in tri:
-                stack.append((ck, iter(children(ck))))
+                stack.append((ck, enumerate(children(ck))))
                 active.add(ck)
     n_tri = min(_MANY, sum(tri[k] for k, _ in pkg.items))
     n_vert = min(_MANY, sum(vert[k] for k, _ in pkg.items))

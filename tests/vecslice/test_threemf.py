@@ -394,8 +394,8 @@ BAD_MODELS = [
      r"3MF part '/3D/3dmodel\.model' is not a 3D model \(its root element is <foo>"),
     ("missing part", model(components_object(
         1, [(7, None, ' p:path="/3D/none.model"')]), [(1, None)]),
-     r"a component of object 1 refers to part '3d/none\.model', which the package "
-     r"does not contain"),
+     r"component 0 of object 1 refers to part '/3D/none\.model' \(p:path\), which "
+     r"the package does not contain"),
 ]
 
 
@@ -575,9 +575,64 @@ def test_reference_to_an_escaped_part_name(tmp_path):
              extra=[("3D/a%2541.model", other)])
     assert m.n_faces == 4
     res = components_object(1, [(8, None, ' p:path="/3D/a%2541.model"')])
-    refused(tmp_path, model(res, [(1, None)]), r"a component of object 1 refers to "
-            r"object 8 of part '3D/a%2541\.model', which is not defined",
+    refused(tmp_path, model(res, [(1, None)]), r"component 0 of object 1 refers to "
+            r"object 8 of part '/3D/a%2541\.model', which is not defined",
             extra=[("3D/a%2541.model", other)])
+
+
+OTHER = ("3D/other.model", model(mesh_object(7), []))
+WRITTEN_REFS = [
+    # the part as p:path writes it, not as a lookup key ('3d/no such.model')
+    ("missing part", model(components_object(
+        1, [(7, None, ' p:path="/3D/No%20Such.model"')]), [(1, None)]), [],
+     r"component 0 of object 1 refers to part '/3D/No%20Such\.model' \(p:path\), "
+     r"which the package does not contain$"),
+    ("missing part of an item", model(mesh_object(1), [(1, None)]).replace(
+        '<item objectid="1"/>', '<item objectid="1" p:path="/3D/Gone.model"/>'), [],
+     r"build item 1 refers to part '/3D/Gone\.model' \(p:path\), which the "
+     r"package does not contain$"),
+    # the object id as written, not as the number it is
+    ("leading zeros", model(mesh_object(1), [("002", None)]), [],
+     r"build item 1 refers to object 002, which is not defined$"),
+    ("another spelling of a part", model(components_object(
+        1, [("08", None, ' p:path="/3d/OTHER.model"')]), [(1, None)]), [OTHER],
+     r"component 0 of object 1 refers to object 08 of part '/3d/OTHER\.model', "
+     r"which is not defined$"),
+    ("the second component", model(mesh_object(1) + components_object(
+        2, [(1, None, ""), (8, None, ' p:path="/3D/other.model"')]),
+        [(2, None)]), [OTHER],
+     r"component 1 of object 2 refers to object 8 of part '/3D/other\.model', "
+     r"which is not defined$"),
+    # a component in another part: that part is named where the reference is
+    ("from another part", model(components_object(
+        1, [(5, None, ' p:path="/3D/more.model"')]), [(1, None)]),
+     [("3D/more.model", model(components_object(5, [(9, None, "")]), []))],
+     r"component 0 of object 5 of '3D/more\.model' refers to object 9, which is "
+     r"not defined$"),
+    ("from another part to the root", model(components_object(
+        1, [(5, None, ' p:path="/3D/more.model"')]), [(1, None)]),
+     [("3D/more.model", model(components_object(5, [(
+         9, None, ' p:path="/3D/3dmodel.model"')]), []))],
+     r"component 0 of object 5 of '3D/more\.model' refers to object 9 of part "
+     r"'/3D/3dmodel\.model', which is not defined$"),
+]
+
+
+@pytest.mark.parametrize(("label", "xml", "extra", "match"), WRITTEN_REFS,
+                         ids=[c[0] for c in WRITTEN_REFS])
+def test_missing_references_are_named_as_written(tmp_path, label, xml, extra, match):
+    refused(tmp_path, xml, r"m\.3mf': " + match, extra=extra)
+
+
+def test_references_spelt_unusually_cost_little(tmp_path):
+    # their spelling is kept for messages (one tuple per spelling); the usual
+    # one ('1', or p:path '/' and the part's name) is not kept at all
+    n = 20_000
+    empty = '<object id="1" type="model"><mesh><vertices/><triangles/></mesh></object>'
+    path = write_3mf(tmp_path / "zeros.3mf", model(empty, [("01", None)] * n),
+                     method=zipfile.ZIP_STORED)
+    _refuse(path, match="holds no triangles")  # imports outside the measure
+    assert _peak_mib(lambda: _refuse(path)) * 2**20 / n < 300  # bytes an item
 
 
 @pytest.mark.parametrize("bad", [
