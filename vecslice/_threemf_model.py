@@ -303,6 +303,12 @@ class _ModelReader(_Target):
             return
         obj, pkg = self.objects[-1], self.pkg
         element, _, dtype, what, expected, limit_name = _LISTS[kind]
+        limit, reach = pkg.limits[limit_name], pkg.counts[element] + len(buf)
+        if reach > limit:  # before the chunk is joined, parsed and kept
+            raise pkg.fail(
+                f"the 3MF objects hold more than {limit:,} {kind} ({obj.where} "
+                f"reaches {reach:,} in all); vecslice reads at most {limit:,} "
+                f"(vecslice.threemf.{limit_name})")
         text = " ".join(buf)
         # one number per attribute: no space but the 3n - 1 joining ones, no
         # empty attribute, no other whitespace ('y="0 10" z=""' shifted values)
@@ -327,14 +333,8 @@ class _ModelReader(_Target):
                 f"vertex {obj.n[kind] + k} of {obj.where} in '{pkg.path}'")
         obj.chunks[kind].append(a)
         obj.n[kind] += len(buf)
-        pkg.counts[element] += len(buf)
+        pkg.counts[element] = reach
         buf.clear()
-        limit = pkg.limits[limit_name]
-        if pkg.counts[element] > limit:
-            raise pkg.fail(
-                f"the 3MF objects hold more than {limit:,} {kind} ({obj.where} "
-                f"reaches {pkg.counts[element]:,} in all); vecslice reads at most "
-                f"{limit:,} (vecslice.threemf.{limit_name})")
 
     def close_object(self, obj: _Reading) -> None:
         pkg = self.pkg

@@ -272,6 +272,22 @@ def test_vertex_count_is_refused_while_streaming(tmp_path, monkeypatch):
     assert _peak_mib(lambda: _refuse(path)) < 12  # one chunk, not 200,000 strings
 
 
+def test_vertex_count_is_refused_before_its_numbers_are_parsed(tmp_path, monkeypatch):
+    # the count was checked once the chunk was parsed and kept
+    import vecslice._threemf_model as threemf_model
+
+    monkeypatch.setattr("vecslice.threemf.MAX_BUILD_VERTICES", 1000)
+    parsed = []
+    numbers = threemf_model._numbers
+    monkeypatch.setattr(threemf_model, "_numbers", lambda text, dtype, n: (
+        parsed.append(n), numbers(text, dtype, n))[1])
+    refused(tmp_path, model(mesh_object(1, v=_many_vertices(5000), f=[(0, 1, 2)]),
+                            [(1, None)]),
+            r"the 3MF objects hold more than 1,000 vertices \(object 1 reaches 5,000 "
+            r"in all\)")
+    assert parsed == []
+
+
 def test_triangle_count_is_refused_while_streaming(tmp_path, monkeypatch):
     monkeypatch.setattr("vecslice.threemf.MAX_BUILD_TRIANGLES", 15)
     refused(tmp_path, model(mesh_object(1, f=TET_F * 3) + mesh_object(2, f=TET_F * 2),
