@@ -25,9 +25,11 @@ transforms composed; component cycles and expansions beyond
 :data:`MAX_BUILD_TRIANGLES` triangles, :data:`MAX_BUILD_VERTICES` vertices,
 :data:`MAX_INSTANCES` placements, or more than :data:`MAX_EXPANDED_TRIANGLES`
 triangles from fewer held, are refused from the counts of the component graph
-before any placement is made. The model's ``unit`` is applied: vertices come out
-in millimetres. The parser targets that read model parts are in
-:mod:`vecslice._threemf_model`.
+before any placement is made, as are builds beyond the limits of every mesh
+file (:data:`vecslice.meshfile.MAX_TRIANGLES`). The limits are read once, as a
+read begins, so every check of one read uses the same values. The model's
+``unit`` is applied: vertices come out in millimetres. The parser targets that
+read model parts are in :mod:`vecslice._threemf_model`.
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ from typing import Any, BinaryIO
 import numpy as np
 from numpy.typing import NDArray
 
+from vecslice import meshfile
 from vecslice._threemf_model import (
     _IDENTITY,
     _PRODUCTION,
@@ -143,6 +146,7 @@ _READABLE = {
     "http://schemas.microsoft.com/3dmanufacturing/material/2015/02",
 }
 _RATIO_FROM = 1 << 20
+_RELS_BYTES = 1 << 20  # most bytes _rels/.rels may inflate to (within the budget)
 _MANY = 2**62  # expanded counts saturate here: beyond every limit, a small int
 _FEED = 1 << 20  # bytes of XML handed to the parser at a time
 
@@ -167,7 +171,7 @@ class _Package:
     spelled: dict[At, tuple[str, str | None]] = field(default_factory=dict)
     spellings: dict[tuple[str, str | None], tuple[str, str | None]] = field(
         default_factory=dict)
-    # the limits of this module when the read began (read by _ModelReader)
+    # the limits the read is held to (see _limits), by the names of the constants
     limits: dict[str, int] = field(default_factory=dict)
     # vertices and triangles of every object read so far (placed or not)
     counts: dict[str, int] = field(
@@ -188,32 +192,37 @@ class _Package:
         cost memory (each is kept until the build is expanded).
         """
         self.refs += 1
-        if self.refs > MAX_INSTANCES:
+        limit = self.limits["MAX_INSTANCES"]
+        if self.refs > limit:
             raise self.fail(
-                f"the 3MF holds more than {MAX_INSTANCES:,} build items and "
-                f"components ({where} is one more); vecslice reads at most "
-                f"{MAX_INSTANCES:,} (vecslice.threemf.MAX_INSTANCES)")
+                f"the 3MF holds more than {limit:,} build items and components "
+                f"({where} is one more); vecslice reads at most {limit:,} "
+                "(vecslice.threemf.MAX_INSTANCES)")
         return (_ref(self, attrib, part, where, at),
                 _transform(self, attrib.get("transform"), where))
 
     def member(self, key: str, name: str, *, limit: int) -> zipfile.ZipInfo:
-        """Member ``key`` (called ``name``) after checking its declared sizes."""
+        """Member ``key`` (called ``name``) after checking its declared sizes.
+
+        It may inflate to ``limit`` bytes, and to what is left of the budget.
+        """
         info = self.members[key]
         if info.flag_bits & 0x1:
             raise self.fail(f"3MF part '{name}' is encrypted")
         if info.file_size > min(limit, self.budget):
+            total = self.limits["MAX_MODEL_BYTES"]
             raise self.fail(
                 f"3MF part '{name}' inflates to {info.file_size:,} bytes, more than "
-                f"the {min(limit, self.budget):,} bytes left of vecslice's limit on "
-                f"model XML ({MAX_MODEL_BYTES:,} bytes, "
-                "vecslice.threemf.MAX_MODEL_BYTES)")
+                + (f"the {limit:,} bytes vecslice reads of it" if limit < self.budget
+                   else f"the {self.budget:,} bytes left of vecslice's limit on "
+                   f"model XML ({total:,} bytes, vecslice.threemf.MAX_MODEL_BYTES)"))
         ratio = info.file_size / max(info.compress_size, 1)
-        if info.file_size > _RATIO_FROM and ratio > MAX_COMPRESSION_RATIO:
+        most = self.limits["MAX_COMPRESSION_RATIO"]
+        if info.file_size > _RATIO_FROM and ratio > most:
             raise self.fail(
                 f"3MF part '{name}' would inflate {ratio:,.0f} times "
                 f"({info.compress_size:,} to {info.file_size:,} bytes): a zip bomb? "
-                f"(at most {MAX_COMPRESSION_RATIO} times, "
-                "vecslice.threemf.MAX_COMPRESSION_RATIO)")
+                f"(at most {most} times, vecslice.threemf.MAX_COMPRESSION_RATIO)")
         return info
 
     def parse(self, name: str, *, limit: int, target: Any,
@@ -234,10 +243,11 @@ class _Package:
             target=target, resolve_entities=False, no_network=True, huge_tree=False,
             load_dtd=False, dtd_validation=False, attribute_defaults=False)
         first = True
+        most = self.limits["MAX_COMPRESSION_RATIO"]
         try:
             # at most the declared size, at most MAX_COMPRESSION_RATIO times the
             # compressed bytes actually consumed: whatever the entry declares
-            for chunk in inflate(self.fh, info, max_ratio=MAX_COMPRESSION_RATIO,
+            for chunk in inflate(self.fh, info, max_ratio=most,
                                  ratio_from=_RATIO_FROM, chunk=_FEED):
                 if first and _has_doctype(chunk):
                     self.dtd(name)
@@ -253,9 +263,9 @@ class _Package:
                                 f"{exc}") from None
         except InflationError as exc:
             raise self.fail(
-                f"3MF part '{name}' inflates more than {MAX_COMPRESSION_RATIO} "
-                f"times: {exc.inflated:,} bytes from the first {exc.consumed:,} "
-                f"compressed bytes (its zip entry declares {info.compress_size:,} "
+                f"3MF part '{name}' inflates more than {most} times: "
+                f"{exc.inflated:,} bytes from the first {exc.consumed:,} compressed "
+                f"bytes (its zip entry declares {info.compress_size:,} "
                 f"to {info.file_size:,} bytes): a zip bomb? "
                 "(vecslice.threemf.MAX_COMPRESSION_RATIO)") from None
 
@@ -317,7 +327,7 @@ def _model_part(pkg: _Package) -> str:
     """The root model part named in ``_rels/.rels`` (or the conventional one)."""
     if _norm("_rels/.rels") in pkg.members:
         rels = _Rels(pkg, "_rels/.rels")
-        pkg.parse("_rels/.rels", limit=1 << 20, target=rels)
+        pkg.parse("_rels/.rels", limit=_RELS_BYTES, target=rels)
         for target in rels.targets[:1]:
             if _norm(target) not in pkg.members:
                 raise pkg.fail(f"3MF holds no 3D model: _rels/.rels names "
@@ -335,7 +345,7 @@ def _parse_part(pkg: _Package, key: str, name: str, *, root: bool) -> None:
     ``name`` is how messages call it.
     """
     pkg.parsed.add(key)
-    pkg.parse(name, key=key, limit=MAX_MODEL_BYTES,
+    pkg.parse(name, key=key, limit=pkg.limits["MAX_MODEL_BYTES"],
               target=_ModelReader(pkg, name, key=key, root=root))
 
 
@@ -411,29 +421,34 @@ def _expand(pkg: _Package) -> list[tuple[Key, list[NDArray[np.float64]]]]:
     n_tri = min(_MANY, sum(tri[k] for k, _ in pkg.items))
     n_vert = min(_MANY, sum(vert[k] for k, _ in pkg.items))
     n_inst = min(_MANY, sum(inst[k] for k, _ in pkg.items))
-    if n_tri > MAX_BUILD_TRIANGLES:
-        raise pkg.fail(f"the 3MF build expands to {_many(n_tri)} triangles; "
-                       f"vecslice reads at most {MAX_BUILD_TRIANGLES:,} "
-                       "(vecslice.threemf.MAX_BUILD_TRIANGLES)")
-    if n_vert > MAX_BUILD_VERTICES:
-        raise pkg.fail(f"the 3MF build expands to {_many(n_vert)} vertices; "
-                       f"vecslice reads at most {MAX_BUILD_VERTICES:,} "
-                       "(vecslice.threemf.MAX_BUILD_VERTICES)")
-    if n_inst > MAX_INSTANCES:
-        raise pkg.fail(f"the 3MF build expands to {_many(n_inst)} object "
-                       f"placements; vecslice reads at most {MAX_INSTANCES:,} "
-                       "(vecslice.threemf.MAX_INSTANCES)")
-    held = pkg.counts["triangle"]
-    if n_tri > max(MAX_EXPANDED_TRIANGLES, held):
+    lim = pkg.limits
+    for n, what, most, source in (
+            (n_tri, "triangles", lim["MAX_BUILD_TRIANGLES"],
+             "vecslice.threemf.MAX_BUILD_TRIANGLES"),
+            (n_vert, "vertices", lim["MAX_BUILD_VERTICES"],
+             "vecslice.threemf.MAX_BUILD_VERTICES"),
+            (n_inst, "object placements", lim["MAX_INSTANCES"],
+             "vecslice.threemf.MAX_INSTANCES"),
+            # the limits of every mesh file (read_mesh_file checks them once the
+            # arrays are made); this module's are lower, unless they were raised
+            (n_tri, "triangles", lim["MAX_TRIANGLES"],
+             "vecslice.meshfile.MAX_TRIANGLES"),
+            (n_vert, "vertices", 3 * lim["MAX_TRIANGLES"],
+             "3 x vecslice.meshfile.MAX_TRIANGLES")):
+        if n > most:
+            raise pkg.fail(f"the 3MF build expands to {_many(n)} {what}; vecslice "
+                           f"reads at most {most:,} ({source})")
+    most, held = lim["MAX_EXPANDED_TRIANGLES"], pkg.counts["triangle"]
+    if n_tri > max(most, held):
         raise pkg.fail(f"the 3MF build expands to {n_tri:,} triangles from the "
                        f"{held:,} its objects hold; vecslice expands a 3MF to at "
-                       f"most {MAX_EXPANDED_TRIANGLES:,} triangles, or as many as "
+                       f"most {most:,} triangles, or as many as "
                        "its objects hold (vecslice.threemf.MAX_EXPANDED_TRIANGLES)")
     held = pkg.counts["vertex"]
-    if n_vert > max(3 * MAX_EXPANDED_TRIANGLES, held):
+    if n_vert > max(3 * most, held):
         raise pkg.fail(f"the 3MF build expands to {n_vert:,} vertices from the "
                        f"{held:,} its objects hold; vecslice expands a 3MF to at "
-                       f"most {3 * MAX_EXPANDED_TRIANGLES:,} vertices (3 x "
+                       f"most {3 * most:,} vertices (3 x "
                        "vecslice.threemf.MAX_EXPANDED_TRIANGLES), or as many as "
                        "its objects hold")
     placed: dict[Key, list[NDArray[np.float64]]] = {}
@@ -458,6 +473,21 @@ def _compose(t: NDArray[np.float64], world: NDArray[np.float64]
     if t is _IDENTITY:
         return world
     return t if world is _IDENTITY else t @ world
+
+
+def _limits() -> dict[str, int]:
+    """The limits a read is held to, by the names of their constants.
+
+    This module's and :data:`vecslice.meshfile.MAX_TRIANGLES`, read here only,
+    as the read begins: every check of one read uses the same values.
+    """
+    return {"MAX_MODEL_BYTES": MAX_MODEL_BYTES,
+            "MAX_COMPRESSION_RATIO": MAX_COMPRESSION_RATIO,
+            "MAX_INSTANCES": MAX_INSTANCES, "MAX_OBJECTS": MAX_OBJECTS,
+            "MAX_BUILD_TRIANGLES": MAX_BUILD_TRIANGLES,
+            "MAX_BUILD_VERTICES": MAX_BUILD_VERTICES,
+            "MAX_EXPANDED_TRIANGLES": MAX_EXPANDED_TRIANGLES,
+            "MAX_TRIANGLES": meshfile.MAX_TRIANGLES}
 
 
 def read_3mf(path: Path, size: int) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -494,9 +524,9 @@ def _read_package(path: Path, fh: BinaryIO, zf: zipfile.ZipFile
                     + "; part names must differ in more than case, so which one a "
                     "reader takes would be arbitrary")
             members[key] = info
-        pkg = _Package(path, fh, members, budget=MAX_MODEL_BYTES, limits={
-            "MAX_OBJECTS": MAX_OBJECTS, "MAX_BUILD_VERTICES": MAX_BUILD_VERTICES,
-            "MAX_BUILD_TRIANGLES": MAX_BUILD_TRIANGLES})
+        limits = _limits()
+        pkg = _Package(path, fh, members, budget=limits["MAX_MODEL_BYTES"],
+                       limits=limits)
         root = _model_part(pkg)
         pkg.root = _norm(root)
         _parse_part(pkg, pkg.root, root, root=True)

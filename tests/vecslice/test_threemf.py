@@ -212,6 +212,14 @@ def test_model_bytes_limit(tmp_path, monkeypatch):
     load(tmp_path, model(mesh_object(1), [(1, None)]))  # a small one still loads
 
 
+def test_relationships_part_limit_is_named_as_its_own(tmp_path):
+    # it was named as what is left of MAX_MODEL_BYTES (1 GiB)
+    rels = RELS.replace("<Relationship ", " " * (2 << 20) + "<Relationship ", 1)
+    refused(tmp_path, model(mesh_object(1), [(1, None)]),
+            r"3MF part '_rels/\.rels' inflates to 2,097,\d{3} bytes, more than the "
+            r"1,048,576 bytes vecslice reads of it$", rels=rels)
+
+
 def test_only_model_parts_are_inflated(tmp_path):
     # a 64 MiB thumbnail and texture (1000 x compressed) are never read
     bomb = b"\0" * (64 << 20)
@@ -286,6 +294,48 @@ def test_vertex_count_is_refused_before_its_numbers_are_parsed(tmp_path, monkeyp
             r"the 3MF objects hold more than 1,000 vertices \(object 1 reaches 5,000 "
             r"in all\)")
     assert parsed == []
+
+
+def test_a_read_is_held_to_the_limits_as_it_began(tmp_path, monkeypatch):
+    # some limits were read as the read began, others at each check (and
+    # MAX_BUILD_TRIANGLES both ways): a change while reading split them
+    import vecslice.threemf as threemf
+
+    begin = threemf._model_part
+
+    def begun(pkg):  # the read has begun: every limit drops to 1
+        for name in threemf.__all__:
+            if name.startswith("MAX_"):
+                monkeypatch.setattr(threemf, name, 1)
+        monkeypatch.setattr("vecslice.meshfile.MAX_TRIANGLES", 1)
+        return begin(pkg)
+
+    res = mesh_object(1) + components_object(
+        2, [(1, move(dx=20 * i), "") for i in range(3)])
+    path = write_3mf(tmp_path / "m.3mf", model(res, [(2, None), (1, None)]))
+    monkeypatch.setattr(threemf, "_model_part", begun)
+    v, f = threemf.read_3mf(path, 0)
+    assert f.shape == (16, 3) and v.shape == (16, 3)
+
+
+@pytest.mark.parametrize(("v", "f", "match"), [
+    (TET_V, TET_F, r"the 3MF build expands to 12 triangles; vecslice reads at most "
+     r"10 \(vecslice\.meshfile\.MAX_TRIANGLES\)$"),
+    (_many_vertices(11), [(0, 1, 2)], r"the 3MF build expands to 33 vertices; "
+     r"vecslice reads at most 30 \(3 x vecslice\.meshfile\.MAX_TRIANGLES\)$"),
+])
+def test_the_limit_of_every_mesh_file_is_checked_before_placing(tmp_path,
+                                                                 monkeypatch, v, f,
+                                                                 match):
+    # it was checked once the 3MF reader had made the arrays (by read_mesh_file)
+    import vecslice.threemf as threemf
+
+    monkeypatch.setattr("vecslice.meshfile.MAX_TRIANGLES", 10)
+    res = mesh_object(1, v=v, f=f) + components_object(
+        2, [(1, move(dx=20 * i), "") for i in range(3)])
+    path = write_3mf(tmp_path / "m.3mf", model(res, [(2, None)]))
+    with pytest.raises(vs.MeshFileError, match=match):
+        threemf.read_3mf(path, 0)
 
 
 def test_triangle_count_is_refused_while_streaming(tmp_path, monkeypatch):
