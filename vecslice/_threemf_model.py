@@ -103,7 +103,7 @@ def _transform(pkg: _Package, text: str | None, where: str) -> NDArray[np.float6
 
 
 _ID_MAX = 2**31 - 1
-"""Largest 3MF resource id (ST_ResourceID: below 2**31)."""
+"""Largest 3MF resource id (ST_ResourceID: a positive integer below 2**31)."""
 
 
 def _shown(text: str, limit: int = 40) -> str:
@@ -114,16 +114,18 @@ def _shown(text: str, limit: int = 40) -> str:
 
 
 def _object_id(text: str) -> int | None:
-    """The object id ``text`` (ASCII digits, at most :data:`_ID_MAX`), or None.
+    """The object id ``text`` (ASCII digits, 1 to :data:`_ID_MAX`), or None.
 
-    ``str.isdigit`` and ``int`` also take the digits of other scripts (Arabic-Indic
-    one, U+0661), ``isdigit`` also superscripts, which ``int`` refuses, and
-    ``int`` refuses more than 4300 digits: all raised a bare ValueError.
+    0 is none (3MF resource ids are positive), nor is a signed number.
+    ``str.isdigit`` and ``int`` also take the digits of other scripts
+    (Arabic-Indic one, U+0661), ``isdigit`` also superscripts, which ``int``
+    refuses, and ``int`` refuses more than 4300 digits: all raised a bare
+    ValueError.
     """
     if not (text.isascii() and text.isdigit()) or len(text.lstrip("0")) > 10:
         return None
     n = int(text)
-    return n if n <= _ID_MAX else None
+    return n if 0 < n <= _ID_MAX else None
 
 
 def _ref(pkg: _Package, attrib: dict[str, str], part: str, where: str,
@@ -142,7 +144,7 @@ def _ref(pkg: _Package, attrib: dict[str, str], part: str, where: str,
     n = _object_id(oid)
     if n is None:
         raise pkg.fail(f"{where} has objectid {_shown(oid)}; expected an object "
-                       f"number from 0 to {_ID_MAX}")
+                       f"number from 1 to {_ID_MAX}")
     target = attrib.get(f"{{{_PRODUCTION}}}path")
     key = (_norm(target) if target else part, n)
     info = pkg.members.get(key[0]) if target else None
@@ -282,7 +284,7 @@ class _ModelReader(_Target):
         n = _object_id(oid)
         if n is None:
             raise pkg.fail(f"an object in '{self.name}' has id {_shown(oid)}; "
-                           f"expected a number from 0 to {_ID_MAX}")
+                           f"expected a number from 1 to {_ID_MAX}")
         where = f"object {oid}" + ("" if self.part == pkg.root else
                                    f" of '{self.name}'")
         pkg.n_objects += 1

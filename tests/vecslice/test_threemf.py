@@ -606,10 +606,25 @@ BAD_IDS = [
     ("arabic-indic id", model(mesh_object("\u0661"), [(1, None)]),
      r"has id '\u0661'; expected a number"),
     ("5000-digit id", model(mesh_object("1" * 5000), [(1, None)]),
-     r"has id '1111111111\S*\.\.\. \(5,000 characters\); expected a number from 0 "
+     r"has id '1111111111\S*\.\.\. \(5,000 characters\); expected a number from 1 "
      r"to 2147483647"),
     ("id beyond 3MF's range", model(mesh_object(2**31), [(1, None)]),
-     r"has id '2147483648'; expected a number from 0 to 2147483647"),
+     r"has id '2147483648'; expected a number from 1 to 2147483647"),
+    # ST_ResourceID is a positive integer: 0 was read as an object
+    ("zero id", model(mesh_object(0), [(0, None)]),
+     r"an object in '/3D/3dmodel\.model' has id '0'; expected a number from 1 to "
+     r"2147483647$"),
+    ("zeros id", model(mesh_object(1) + mesh_object("000"), [(1, None)]),
+     r"has id '000'; expected a number from 1 to 2147483647$"),
+    ("negative id", model(mesh_object(-1), [(1, None)]),
+     r"has id '-1'; expected a number from 1 to 2147483647$"),
+    ("zero objectid", model(mesh_object(1), [(1, None), (0, None)]),
+     r"build item 2 has objectid '0'; expected an object number from 1 to "
+     r"2147483647$"),
+    ("zero component objectid", model(mesh_object(1) + components_object(
+        2, [(1, None, ""), ("00", None, "")]), [(2, None)]),
+     r"component 1 of object 2 has objectid '00'; expected an object number from 1 "
+     r"to 2147483647$"),
     ("missing id", model(mesh_object(1).replace(' id="1"', ""), [(1, None)]),
      r"an object in '/3D/3dmodel\.model' has no id"),
     ("superscript objectid", model(mesh_object(1), [("\u00b2", None)]),
