@@ -27,13 +27,16 @@ _CHUNK_PARTS = 64  # partitions per chunk of matching
 _CHUNK_FACES = 1 << 16  # faces per chunk of the face passes
 
 
-@kernel(types.Tuple((I64_1D_OUT, I64_1D_OUT, types.uint64[::1], I64))(I64_2D))
-def _partition_vertices(vertices):
+@kernel(types.Tuple((I64_1D_OUT, I64))(I64_2D, types.int64[::1], types.uint64[::1]))
+def _partition_vertices(vertices, out_order, out_hashes):
     """Vertices partitioned by the top bits of a hash of their position.
 
-    Returns ``(part_offsets, order, hashes, pbits)``: partition ``p`` holds the
-    vertices ``order[part_offsets[p]:part_offsets[p + 1]]`` in index order (a
-    counting sort), ``hashes`` beside them, ``2**pbits`` partitions.
+    Returns ``(part_offsets, pbits)``: partition ``p`` holds the vertices
+    ``out_order[part_offsets[p]:part_offsets[p + 1]]`` in index order (a
+    counting sort), their hashes beside them in ``out_hashes`` (both (V,), given
+    by the caller: numpy puts large arrays on huge pages, where numba's own
+    allocations take a page fault per 4 kB of fresh memory), ``2**pbits``
+    partitions.
     """
     n = vertices.shape[0]
     pbits = 0
@@ -49,15 +52,14 @@ def _partition_vertices(vertices):
     for p in range(n_parts):
         part_offsets[p + 1] += part_offsets[p]
     fill = part_offsets[:-1].copy()
-    order = np.empty(n, dtype=np.int64)
-    hashes = np.empty(n, dtype=np.uint64)  # beside order: no random reads below
+    # the hashes beside the order: no random reads when matching
     for i in range(n):
         h = _hash(vertices[i, 0], vertices[i, 1], vertices[i, 2])
         p = np.int64(h >> pshift) if pbits > 0 else 0
-        order[fill[p]] = i
-        hashes[fill[p]] = h
+        out_order[fill[p]] = i
+        out_hashes[fill[p]] = h
         fill[p] += 1
-    return part_offsets, order, hashes, pbits
+    return part_offsets, pbits
 
 
 _U64_1D = types.Array(types.uint64, 1, "C", readonly=True)
@@ -97,22 +99,24 @@ def _match_partitions(vertices, part_offsets, order, hashes, pbits, p0, p1, out_
                 s = (s + 1) & mask
 
 
-@kernel(types.Tuple((I64_1D_OUT, I64_1D_OUT))(I64_1D))
-def _number_groups(rep):
-    """``(group, first)`` from the first vertex ``rep[i]`` of every position."""
+@kernel(I64(I64_1D, types.int64[::1], types.int64[::1]))
+def _number_groups(rep, out_group, out_first):
+    """Groups from the first vertex ``rep[i]`` of every position; returns their number.
+
+    ``out_group[i]`` is vertex ``i``'s group, ``out_first[g]`` the first vertex of
+    group ``g`` (for the groups there are); both (V,), given by the caller.
+    """
     n = rep.shape[0]
-    group = np.empty(n, dtype=np.int64)
-    first = np.empty(n, dtype=np.int64)
     n_groups = 0
     for i in range(n):
         j = rep[i]
         if j == i:
-            group[i] = n_groups
-            first[n_groups] = i
+            out_group[i] = n_groups
+            out_first[n_groups] = i
             n_groups += 1
         else:
-            group[i] = group[j]
-    return group, first[:n_groups].copy()
+            out_group[i] = out_group[j]
+    return n_groups
 
 
 def merge_vertices(vertices, run=run_serial):
@@ -130,13 +134,19 @@ def merge_vertices(vertices, run=run_serial):
     ``bounds[c]:bounds[c + 1]``, in any order or at once; by default one after
     another). A last pass numbers the groups in index order.
     """
-    part_offsets, order, hashes, pbits = _partition_vertices(vertices)
-    rep = np.empty(vertices.shape[0], dtype=np.int64)
+    n = vertices.shape[0]
+    order = np.empty(n, dtype=np.int64)
+    hashes = np.empty(n, dtype=np.uint64)
+    part_offsets, pbits = _partition_vertices(vertices, order, hashes)
+    rep = np.empty(n, dtype=np.int64)
     n_parts = part_offsets.shape[0] - 1
     bounds = np.append(np.arange(0, n_parts, _CHUNK_PARTS), n_parts)
     run(lambda p0, p1: _match_partitions(vertices, part_offsets, order, hashes,
                                          pbits, p0, p1, rep), bounds)
-    return _number_groups(rep)
+    group = np.empty(n, dtype=np.int64)
+    first = np.empty(n, dtype=np.int64)
+    n_groups = _number_groups(rep, group, first)
+    return group, first if n_groups == n else first[:n_groups].copy()
 
 
 @kernel(I64(I64_2D, I64_1D, I64, I64, types.int64[::1]))
