@@ -19,7 +19,7 @@ two small kernels, and no parfor.
 import numpy as np
 from numba import types
 
-from ._jit import kernel, run_serial
+from ._jit import even_chunks, kernel, run_serial
 from ._types import B1_1D, B1_1D_OUT, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
 from .crossings import DOWN_EDGE, UP_EDGE
 from .sorting import lower_bound, stable_argsort
@@ -122,7 +122,10 @@ BLOCK = 1 << BLOCK_BITS  # faces per block of the plan's block summaries
 _I32_2D_W = types.int32[:, ::1]
 
 
-@kernel(types.void(I64_2D, _I32_1D, I64_1D, I64, I64, I64, _I32_W, _I64_W,
+_I32_2D = types.Array(types.int32, 2, "C", readonly=True)
+
+
+@kernel(types.void(_I32_2D, _I32_1D, I64_1D, I64, I64, I64, _I32_W, _I64_W,
                    _I64_W, _I32_2D_W, _I64_W))
 def _plan_range(faces, twin, vert_layer, f0, f1, n_planes, out_face_lo,
                 out_face_offsets, out_per_plane, out_blocks, out_counts):
@@ -133,7 +136,8 @@ def _plan_range(faces, twin, vert_layer, f0, f1, n_planes, out_face_lo,
     planes' difference counts (+1 at a face's low plane, -1 at its high one) to
     ``out_per_plane`` (``n_planes + 1``, zeros, this range's own); the blocks of
     these faces; ``out_counts`` = (segments, starts on an edge without a twin,
-    ends on one).
+    ends on one). ``faces`` are the mesh's faces as int32 (see
+    :func:`narrow_faces`).
     """
     down_of = np.array(DOWN_EDGE, dtype=np.int64)
     up_of = np.array(UP_EDGE, dtype=np.int64)
@@ -200,8 +204,10 @@ def segment_plan(faces, twin, vert_layer, n_planes, n_chunks=1, run=run_serial):
     order or at once); each range's offsets, counted from 0, are then moved up
     by the segments of the ranges before it. Each range counts its planes'
     segments in its own row, so there are fewer ranges where the planes are
-    very many (at most ``_PLAN_SCRATCH`` counts in all).
+    very many (at most ``_PLAN_SCRATCH`` counts in all). ``faces`` may be int64
+    or already int32 (:func:`narrow_faces`).
     """
+    faces = narrow_faces(faces, run)
     n_faces = faces.shape[0]
     n_blocks = (n_faces + BLOCK - 1) // BLOCK
     # each range counts its own planes: at most _PLAN_SCRATCH counts in all
@@ -425,11 +431,8 @@ def _trace_open(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
     return open_coords, open_offsets, open_rings, chain_segs
 
 
-_I32_2D = types.Array(types.int32, 2, "C", readonly=True)
-
-
 @kernel(
-    types.void(I64_2D, I64_2D, _I32_1D, I64_1D, I64_1D, I64_1D, _I32_1D, I64_1D,
+    types.void(I64_2D, _I32_2D, _I32_1D, I64_1D, I64_1D, I64_1D, _I32_1D, I64_1D,
                _I32_2D, I64_1D, I64, I64, I64_1D, I64_1D, I64_1D, _U8_W,
                I64_2D_OUT, _U8_W, _I64_W, _U8_W),
 )
@@ -444,6 +447,8 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
     segment not yet visited, writing its points at its plane's cursor (which
     starts at ``layer_start[out_layer[k]]``) and flagging its first point in
     ``out_ring_start``. A chunk writes only its planes' segments and vertices.
+    ``faces`` are int32 (:func:`narrow_faces`): half the bytes to read where a
+    loop jumps from face to face.
     """
     if k1 <= k0:
         return
@@ -498,8 +503,30 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
                 cursor[k - k0] = pos
 
 
+NARROW_LIMIT = 1 << 31  # vertices: the face indices of at most this many fit int32
+
+
+_NARROW_CHUNK = 1 << 18  # faces per chunk of narrow_faces
+
+
+def narrow_faces(faces, run=run_serial):
+    """``faces`` as int32 (the same array when it is int32 already).
+
+    Copied in chunks of faces given to ``run`` (``run(fn, bounds)`` calls
+    ``fn(lo, hi)`` for every chunk, in any order or at once; by default one
+    after another). Precondition: every index is below 2**31 (at most
+    ``NARROW_LIMIT`` vertices).
+    """
+    if faces.dtype == np.int32:
+        return faces
+    out = np.empty(faces.shape, dtype=np.int32)
+    run(lambda lo, hi: np.copyto(out[lo:hi], faces[lo:hi], casting="unsafe"),
+        even_chunks(faces.shape[0], _NARROW_CHUNK))
+    return out
+
+
 def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
-                   run=run_serial):
+                   run=run_serial, faces32=None):
     """Closed loops and open chains of a mesh cut at every plane, grouped by layer.
 
     Returns ``(coords, ring_offsets, layer_offsets, open_coords, open_ring_offsets,
@@ -521,11 +548,14 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
 
     Preconditions: ``z`` sorted; ``vert_layer[v]`` the number of planes strictly
     below vertex ``v``; ``twin`` from :func:`.topology.half_edge_twins`;
-    ``out_layer`` a permutation of ``range(len(z))``; |coordinates| < 2**30.
+    ``out_layer`` a permutation of ``range(len(z))``; |coordinates| < 2**30;
+    at most ``NARROW_LIMIT`` vertices. ``faces32``: ``faces`` as int32, when
+    the caller keeps them (``vecslice.Mesh`` does); else made here.
     """
     n_planes = z.shape[0]
+    faces32 = narrow_faces(faces if faces32 is None else faces32, run)
     face_lo, face_offsets, per_plane, n_in, n_out, blocks = segment_plan(
-        faces, twin, vert_layer, n_planes, n_chunks, run)
+        faces32, twin, vert_layer, n_planes, n_chunks, run)
     n_seg = int(face_offsets[-1])
     visited = np.zeros(n_seg, dtype=np.uint8)
     if n_in + n_out == 0:  # a closed mesh: the open-end kernels are not compiled
@@ -563,7 +593,7 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
     bounds[n_chunks] = n_planes
 
     def closed(k0, k1):
-        _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
+        _trace_closed(vertices, faces32, twin, vert_layer, z, out_layer, face_lo,
                       face_offsets, blocks, layer_start, k0, k1, in_seg, in_pair,
                       out_face, visited, coords, ring_start, rings_of, broken)
 

@@ -136,6 +136,11 @@ class Mesh:
     _twins: NDArray[np.int64] | None = field(
         default=None, init=False, repr=False, compare=False
     )
+    # ``faces`` as int32, for the contour kernels (half the bytes to read where a
+    # loop jumps from face to face); built by the first slice, see _narrow_faces
+    _faces32: NDArray[np.int32] | None = field(
+        default=None, init=False, repr=False, compare=False
+    )
     # CuraEngine's vertex -> faces lists and face neighbours (compat="cura"),
     # likewise built once; see _cura_topology
     _cura: tuple[NDArray[np.int64], ...] | None = field(
@@ -172,6 +177,7 @@ class Mesh:
         object.__setattr__(self, "faces", _freeze(np.ascontiguousarray(f)))
         object.__setattr__(self, "load_info", info)
         object.__setattr__(self, "_twins", None)
+        object.__setattr__(self, "_faces32", None)
         object.__setattr__(self, "_cura", None)
         object.__setattr__(self, "_zcorners", None)
         object.__setattr__(self, "_adaptive", None)
@@ -218,6 +224,33 @@ class Mesh:
             twins = _freeze(topology.half_edge_twins(self.faces, n, run=run_chunks))
             object.__setattr__(self, "_twins", twins)
         return twins
+
+    def _narrow_faces(self) -> NDArray[np.int32]:
+        """``faces`` as int32, built once per mesh and cached like the twins.
+
+        The contour kernels read the faces at every step of a loop; in int32
+        they read half the bytes (on five Benchies the closed loops are traced
+        in about a tenth less time). 12 bytes per face.
+
+        Raises
+        ------
+        InputValueError
+            If the mesh has more than 2**31 vertices (face indices must fit int32).
+        """
+        f32 = self._faces32
+        if f32 is None:
+            from vecslice._kernels import contours
+            from vecslice._threads import run_chunks
+
+            n = self.vertices.shape[0]
+            if n > contours.NARROW_LIMIT:
+                raise InputValueError(
+                    f"`mesh` has {n:,} vertices; slicing takes at most "
+                    f"{contours.NARROW_LIMIT:,} (its face indices are read as int32)"
+                )
+            f32 = _freeze(contours.narrow_faces(self.faces, run_chunks))
+            object.__setattr__(self, "_faces32", f32)
+        return f32
 
     def _cura_topology(self) -> tuple[NDArray[np.int64], ...]:
         """CuraEngine's ``(faces, vf_offsets, vf_faces, neighbours)``, built once.
@@ -422,6 +455,7 @@ class Mesh:
         moved = self.vertices + np.array(d, dtype=np.int64)
         out = Mesh._trusted(moved, self.faces, self.load_info)
         object.__setattr__(out, "_twins", self._twins)  # same faces, same topology
+        object.__setattr__(out, "_faces32", self._faces32)
         zmin, zmax = self._corner_zrange()  # the model moves with its vertices
         object.__setattr__(out, "_zcorners", (zmin + d[2], zmax + d[2]))
         return out

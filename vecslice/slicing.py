@@ -141,9 +141,9 @@ def slice_contours(
 def _contours(mesh: Any, z: NDArray[np.int64], stitch: bool) -> LayerPaths:
     """:func:`slice_contours` on checked input.
 
-    The mesh's half-edge twins are built on its first slice and cached on it, so
-    every later slice of the same mesh (other heights, ``vecslice.sweep``) reuses
-    them.
+    The mesh's half-edge twins and int32 faces are built on its first slice and
+    cached on it, so every later slice of the same mesh (other heights,
+    ``vecslice.sweep``) reuses them.
     """
     vertices, faces = mesh.vertices, mesh.faces
     order = np.argsort(z, kind="stable")
@@ -158,10 +158,12 @@ def _contours(mesh: Any, z: NDArray[np.int64], stitch: bool) -> LayerPaths:
     # sorted plane k is input height order[k]: it becomes output layer order[k]
     out_layer = order.astype(np.int64)
     twin = mesh._half_edge_twins()
+    faces32 = mesh._narrow_faces()
     vert_layer = _layer_of_vertices(vertices, zs)
     coords, ring_offsets, layer_offsets, o_coords, o_rings, o_layers = (
         trace_contours(vertices, faces, twin, vert_layer, zs, out_layer,
-                       _chunks_for(faces.shape[0], zs.shape[0]), run=run_chunks)
+                       _chunks_for(faces.shape[0], zs.shape[0]), run=run_chunks,
+                       faces32=faces32)
     )
     open_chains = LayerPaths._trusted(o_coords, o_rings, o_layers)
     loops = LayerPaths._trusted(coords, ring_offsets, layer_offsets, open_chains)

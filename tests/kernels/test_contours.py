@@ -276,3 +276,16 @@ def test_round_div_by_where_the_double_quotient_floors_one_off():
                 high.append((d, t, dz))
     for d, t, dz in low[:300] + high[:300]:
         assert round_div_by(d, t, dz, 1.0 / dz) == _exact_round_div_by(d, t, dz)
+
+
+@pytest.mark.parametrize("run", sorted(RUNNERS))
+def test_narrow_faces_is_faces_as_int32(run, monkeypatch):
+    from vecslice._kernels import contours
+
+    monkeypatch.setattr(contours, "_NARROW_CHUNK", 7)  # many chunks
+    f = np.random.default_rng(5).integers(0, 2**31 - 1, size=(100, 3))
+    f32 = contours.narrow_faces(f, run=RUNNERS[run])
+    assert f32.dtype == np.int32 and f32.flags.c_contiguous
+    assert f32.tolist() == f.tolist()
+    assert contours.narrow_faces(f32, run=RUNNERS[run]) is f32
+    assert contours.narrow_faces(f[:0], run=RUNNERS[run]).shape == (0, 3)

@@ -106,6 +106,7 @@ def _other_results():
         "MeshReport.bounds": vs.check_mesh(box).bounds,
         "Stitched.gaps_stitched": gaps,
         "Mesh twins cache": box._half_edge_twins(),
+        "Mesh int32 faces cache": box._narrow_faces(),
         "CuraLayers.explicit": raw.explicit,
         "CuraLayers.stats": raw.stats,
     }

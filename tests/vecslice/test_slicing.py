@@ -272,6 +272,33 @@ def test_too_many_faces_for_int32_twins_is_a_clear_error(monkeypatch):
     assert vs.slice_contours(box, [0]).layer_area2().tolist() == [200_000_000]
 
 
+def test_too_many_vertices_for_int32_face_indices_is_a_clear_error(monkeypatch):
+    # the contour kernels read the faces as int32: a mesh of more than 2**31
+    # vertices is refused by name (the limit lowered here: such a mesh would take
+    # 48 GB of vertices)
+    from vecslice._kernels import contours
+
+    box = vs.load_mesh(trimesh.creation.box((10, 10, 10)))  # 8 vertices
+    monkeypatch.setattr(contours, "NARROW_LIMIT", 7)
+    with pytest.raises(vs.InputValueError, match=r"`mesh` has 8 vertices; slicing "
+                       r"takes at most 7 \(its face indices are read as int32\)"):
+        vs.slice_contours(box, [0])
+    monkeypatch.setattr(contours, "NARROW_LIMIT", 8)
+    assert vs.slice_contours(box, [0]).layer_area2().tolist() == [200_000_000]
+
+
+def test_int32_faces_are_made_once_per_mesh_and_equal_its_faces():
+    mesh = vs.load_mesh(trimesh.creation.icosphere(subdivisions=2, radius=10))
+    vs.slice_contours(mesh, [0])
+    f32 = mesh._narrow_faces()
+    assert f32.dtype == np.int32 and (f32 == mesh.faces).all()
+    assert not f32.flags.writeable
+    vs.slice_contours(mesh, [-5000, 5000])
+    vs.slice_mesh(mesh)
+    assert mesh._narrow_faces() is f32
+    assert mesh.translated(1000, 0, 0)._narrow_faces() is f32  # same faces
+
+
 def test_slice_contours_checks_the_heights_it_cuts(write_when_copied, monkeypatch):
     """Audit s26 state D2: slice_z was checked (range, then sorted or not) in the
     caller's memory, which the kernels then read: a write by another thread in
