@@ -257,33 +257,27 @@ def test_pickled_mesh_leaves_its_topology_behind_and_slices_the_same():
     assert again.ring_offsets.tolist() == first.ring_offsets.tolist()
 
 
-def test_too_many_faces_for_int32_twins_is_a_clear_error(monkeypatch):
+@pytest.mark.parametrize(("module", "limit", "refused", "message"), [
     # the half-edge ids are int32: a mesh of 2**31 / 3 faces or more is refused
-    # by name before the topology is built (the limit lowered here: such a mesh
-    # would take 17 GB of faces)
-    from vecslice._kernels import topology
-
-    box = vs.load_mesh(trimesh.creation.box((10, 10, 10)))  # 12 faces
-    monkeypatch.setattr(topology, "TWIN_LIMIT", 36)
-    with pytest.raises(vs.InputValueError, match=r"`mesh` has 12 faces; slicing "
-                       r"takes at most 11 \(its half-edges are numbered in int32\)"):
-        vs.slice_contours(box, [0])
-    monkeypatch.setattr(topology, "TWIN_LIMIT", 37)
-    assert vs.slice_contours(box, [0]).layer_area2().tolist() == [200_000_000]
-
-
-def test_too_many_vertices_for_int32_face_indices_is_a_clear_error(monkeypatch):
+    # by name before the topology is built (such a mesh would take 17 GB of faces)
+    ("topology", "TWIN_LIMIT", 36, r"`mesh` has 12 faces; slicing takes at most 11 "
+     r"\(its half-edges are numbered in int32\)"),
     # the contour kernels read the faces as int32: a mesh of more than 2**31
-    # vertices is refused by name (the limit lowered here: such a mesh would take
-    # 48 GB of vertices)
-    from vecslice._kernels import contours
+    # vertices is refused by name (it would take 48 GB of vertices)
+    ("contours", "NARROW_LIMIT", 7, r"`mesh` has 8 vertices; slicing takes at most 7 "
+     r"\(its face indices are read as int32\)"),
+])
+def test_too_large_for_int32_ids_is_a_clear_error(monkeypatch, module, limit, refused,
+                                                  message):
+    # the limits are lowered here: a box has 12 faces and 8 vertices
+    import importlib
 
-    box = vs.load_mesh(trimesh.creation.box((10, 10, 10)))  # 8 vertices
-    monkeypatch.setattr(contours, "NARROW_LIMIT", 7)
-    with pytest.raises(vs.InputValueError, match=r"`mesh` has 8 vertices; slicing "
-                       r"takes at most 7 \(its face indices are read as int32\)"):
+    kernels = importlib.import_module(f"vecslice._kernels.{module}")
+    box = vs.load_mesh(trimesh.creation.box((10, 10, 10)))
+    monkeypatch.setattr(kernels, limit, refused)
+    with pytest.raises(vs.InputValueError, match=message):
         vs.slice_contours(box, [0])
-    monkeypatch.setattr(contours, "NARROW_LIMIT", 8)
+    monkeypatch.setattr(kernels, limit, refused + 1)
     assert vs.slice_contours(box, [0]).layer_area2().tolist() == [200_000_000]
 
 
