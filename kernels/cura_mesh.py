@@ -16,7 +16,7 @@ from numba import types
 from ._jit import cost_chunks, even_chunks, kernel, run_serial
 from ._types import B1_1D_W, I64, I64_1D, I64_1D_OUT, I64_1D_W, I64_2D, I64_2D_W
 from .geometry import tdiv
-from .sorting import table_bits
+from .sorting import mix_hash, table_bits
 
 _TWO_PI = 2.0 * np.pi
 _MELD_CHUNK = 1 << 16  # corners per chunk of cells to meld
@@ -24,11 +24,6 @@ _FACE_CHUNK = 1 << 14  # faces per chunk of face_neighbours
 _HASH_CHUNK = 1 << 20  # corners per chunk of the partition passes of group_cells
 _PART_SIZE = 2048  # about this many corners per partition: its table stays in cache
 _PART_CHUNK = 1 << 16  # corners per chunk of partitions to group
-
-# odd 64-bit multipliers (from splitmix64 and the golden ratio) mixing a cell
-_MIX_X = np.int64(-7046029254386353131)  # 0x9E3779B97F4A7C15
-_MIX_Y = np.int64(-4658895280553007687)  # 0xBF58476D1CE4E5B9
-_MIX_Z = np.int64(-7723592293110705685)  # 0x94D049BB133111EB
 
 
 @kernel(inline="always")
@@ -47,15 +42,6 @@ def _same_cell(corners, a, b, reach):
     return ax == bx and ay == by and az == bz
 
 
-@kernel(inline="always")
-def _cell_hash(qx, qy, qz):
-    """A well-mixed 64-bit hash of a cell (wrapping int64 arithmetic)."""
-    h = qx * _MIX_X + qy * _MIX_Y + qz * _MIX_Z
-    h ^= h >> 29
-    h *= _MIX_X
-    return np.uint64(h)
-
-
 _U64_1D = types.Array(types.uint64, 1, "C", readonly=True)
 _U64_1D_W = types.uint64[::1]
 
@@ -71,7 +57,7 @@ def _hash_range(corners, reach, pbits, size, c0, c1, out_hash, out_hist):
     shift = np.uint64(64 - pbits) if pbits > 0 else np.uint64(63)
     for i in range(c0, c1):
         qx, qy, qz = _cell(corners, i, reach)
-        h = _cell_hash(qx, qy, qz)
+        h = mix_hash(qx, qy, qz)
         out_hash[i] = h
         out_hist[np.int64(h >> shift) if pbits > 0 else 0, col] += 1
 

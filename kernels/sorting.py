@@ -4,8 +4,9 @@
 compile at every first use; this plain bottom-up merge sort compiles once, in a
 fraction of that, and returns the same permutation (the stable order).
 
-:func:`lower_bound` (a binary search) and :func:`table_bits` (the size of an
-open-addressing hash table) are inlined into the kernels that call them.
+:func:`lower_bound` (a binary search), :func:`table_bits` (the size of an
+open-addressing hash table) and :func:`mix_hash` (the hash of an integer
+triple those tables are keyed by) are inlined into the kernels that call them.
 """
 
 import numpy as np
@@ -14,7 +15,7 @@ from numba import types
 from ._jit import kernel
 from ._types import I64, I64_1D, I64_1D_OUT
 
-__all__ = ["lower_bound", "stable_argsort", "table_bits"]
+__all__ = ["lower_bound", "mix_hash", "stable_argsort", "table_bits"]
 
 _RUN = 16  # runs of this length are sorted by insertion first
 
@@ -44,6 +45,26 @@ def table_bits(m):
     while (np.int64(1) << b) < 2 * m:
         b += 1
     return b
+
+
+# odd 64-bit multipliers (from splitmix64 and the golden ratio) mixing x, y, z
+_MIX_X = np.int64(-7046029254386353131)  # 0x9E3779B97F4A7C15
+_MIX_Y = np.int64(-4658895280553007687)  # 0xBF58476D1CE4E5B9
+_MIX_Z = np.int64(-7723592293110705685)  # 0x94D049BB133111EB
+
+
+@kernel(inline="always")
+def mix_hash(x, y, z):
+    """A well-mixed 64-bit hash of an integer triple (wrapping int64 arithmetic).
+
+    Its top bits pick a partition, the bits below them a slot: vertex positions
+    (``vertices.merge_vertices``) and CuraEngine's hash cells
+    (``cura_mesh.group_cells``).
+    """
+    h = x * _MIX_X + y * _MIX_Y + z * _MIX_Z
+    h ^= h >> 29
+    h *= _MIX_X
+    return np.uint64(h)
 
 
 @kernel(types.void(I64_1D, I64_1D, types.int64[::1], I64))

@@ -5,22 +5,7 @@ from numba import types
 
 from ._jit import kernel, run_serial
 from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
-from .sorting import table_bits
-
-# odd 64-bit multipliers (from splitmix64 and the golden ratio) mixing x, y, z
-_MIX_X = np.int64(-7046029254386353131)  # 0x9E3779B97F4A7C15
-_MIX_Y = np.int64(-4658895280553007687)  # 0xBF58476D1CE4E5B9
-_MIX_Z = np.int64(-7723592293110705685)  # 0x94D049BB133111EB
-
-
-@kernel(inline="always")
-def _hash(x, y, z):
-    """A well-mixed 64-bit hash of a position (wrapping int64 arithmetic)."""
-    h = x * _MIX_X + y * _MIX_Y + z * _MIX_Z
-    h ^= h >> 29
-    h *= _MIX_X
-    return np.uint64(h)
-
+from .sorting import mix_hash, table_bits
 
 _PART_SIZE = 2048  # about this many vertices per partition: its table stays in cache
 _CHUNK_PARTS = 64  # partitions per chunk of matching
@@ -46,7 +31,7 @@ def _partition_vertices(vertices, out_order, out_hashes):
     pshift = np.uint64(64 - pbits) if pbits > 0 else np.uint64(63)
     part_offsets = np.zeros(n_parts + 1, dtype=np.int64)
     for i in range(n):
-        h = _hash(vertices[i, 0], vertices[i, 1], vertices[i, 2])
+        h = mix_hash(vertices[i, 0], vertices[i, 1], vertices[i, 2])
         p = np.int64(h >> pshift) if pbits > 0 else 0
         part_offsets[p + 1] += 1
     for p in range(n_parts):
@@ -54,7 +39,7 @@ def _partition_vertices(vertices, out_order, out_hashes):
     fill = part_offsets[:-1].copy()
     # the hashes beside the order: no random reads when matching
     for i in range(n):
-        h = _hash(vertices[i, 0], vertices[i, 1], vertices[i, 2])
+        h = mix_hash(vertices[i, 0], vertices[i, 1], vertices[i, 2])
         p = np.int64(h >> pshift) if pbits > 0 else 0
         out_order[fill[p]] = i
         out_hashes[fill[p]] = h

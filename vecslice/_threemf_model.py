@@ -128,6 +128,22 @@ def _object_id(text: str) -> int | None:
     return n if 0 < n <= _ID_MAX else None
 
 
+def _id_of(pkg: _Package, attrib: dict[str, str], name: str, who: str,
+           expected: str) -> tuple[str, int]:
+    """(as written, number) of the object id in attribute ``name`` of ``who``.
+
+    A missing or malformed id is a MeshFileError naming ``who`` and the value.
+    """
+    text = attrib.get(name)
+    if text is None:
+        raise pkg.fail(f"{who} has no {name}")
+    n = _object_id(text)
+    if n is None:
+        raise pkg.fail(f"{who} has {name} {_shown(text)}; expected {expected} from 1 "
+                       f"to {_ID_MAX}")
+    return text, n
+
+
 def _ref(pkg: _Package, attrib: dict[str, str], part: str, where: str,
          at: At) -> Key:
     """(part, object id) an item or component of model part ``part`` refers to.
@@ -138,13 +154,7 @@ def _ref(pkg: _Package, attrib: dict[str, str], part: str, where: str,
     names the referring part itself, or a part the package lacks) are kept as
     written in ``pkg.spelled``: a message names them as the file does.
     """
-    oid = attrib.get("objectid")
-    if oid is None:
-        raise pkg.fail(f"{where} has no objectid")
-    n = _object_id(oid)
-    if n is None:
-        raise pkg.fail(f"{where} has objectid {_shown(oid)}; expected an object "
-                       f"number from 1 to {_ID_MAX}")
+    oid, n = _id_of(pkg, attrib, "objectid", where, "an object number")
     target = attrib.get(f"{{{_PRODUCTION}}}path")
     key = (_norm(target) if target else part, n)
     info = pkg.members.get(key[0]) if target else None
@@ -278,13 +288,7 @@ class _ModelReader(_Target):
 
     def open_object(self, attrib: dict[str, str]) -> None:
         pkg = self.pkg
-        oid = attrib.get("id")
-        if oid is None:
-            raise pkg.fail(f"an object in '{self.name}' has no id")
-        n = _object_id(oid)
-        if n is None:
-            raise pkg.fail(f"an object in '{self.name}' has id {_shown(oid)}; "
-                           f"expected a number from 1 to {_ID_MAX}")
+        oid, n = _id_of(pkg, attrib, "id", f"an object in '{self.name}'", "a number")
         where = f"object {oid}" + ("" if self.part == pkg.root else
                                    f" of '{self.name}'")
         pkg.n_objects += 1

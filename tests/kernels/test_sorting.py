@@ -41,3 +41,21 @@ def test_table_bits_is_the_fewest_bits_for_a_half_full_table(m):
     b = table_bits(m)
     assert b >= 1 and 2**b >= 2 * m
     assert b == 1 or 2 ** (b - 1) < 2 * m
+
+
+def _mix_reference(x, y, z):
+    """mix_hash in Python integers, wrapped to 64 bits as int64 arithmetic wraps."""
+    mask = 2**64 - 1
+    h = (x * 0x9E3779B97F4A7C15 + y * 0xBF58476D1CE4E5B9
+         + z * 0x94D049BB133111EB) & mask
+    signed = h - 2**64 if h >> 63 else h
+    h = (h ^ ((signed >> 29) & mask)) & mask  # arithmetic shift, as int64's
+    return (h * 0x9E3779B97F4A7C15) & mask
+
+
+@given(int64, int64, int64)
+def test_mix_hash_is_its_definition_in_wrapping_arithmetic(x, y, z):
+    from vecslice._kernels.sorting import mix_hash
+
+    h = mix_hash(np.int64(x), np.int64(y), np.int64(z))
+    assert int(h) == _mix_reference(x, y, z)
