@@ -102,7 +102,8 @@ def slice_contours(
         ``slice_z`` not integer.
     InputValueError
         If ``slice_z`` is not 1-D or reaches 2**30 µm, or the mesh has more
-        than 715,827,882 faces (half-edges are numbered in int32).
+        than 715,827,882 faces (half-edges are numbered in int32) or more than
+        2**31 vertices (face indices are read as int32).
     SettingsError
         If there are more than ``max_layers`` heights.
 
