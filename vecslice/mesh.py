@@ -136,6 +136,11 @@ class Mesh:
     _twins: NDArray[np.int64] | None = field(
         default=None, init=False, repr=False, compare=False
     )
+    # whether every half-edge has its twin (no open or non-manifold edge); with
+    # the twins, see _twins_closed
+    _closed: bool | None = field(
+        default=None, init=False, repr=False, compare=False
+    )
     # ``faces`` as int32, for the contour kernels (half the bytes to read where a
     # loop jumps from face to face); built by the first slice, see _narrow_faces
     _faces32: NDArray[np.int32] | None = field(
@@ -177,6 +182,7 @@ class Mesh:
         object.__setattr__(self, "faces", _freeze(np.ascontiguousarray(f)))
         object.__setattr__(self, "load_info", info)
         object.__setattr__(self, "_twins", None)
+        object.__setattr__(self, "_closed", None)
         object.__setattr__(self, "_faces32", None)
         object.__setattr__(self, "_cura", None)
         object.__setattr__(self, "_zcorners", None)
@@ -224,6 +230,19 @@ class Mesh:
             twins = _freeze(topology.half_edge_twins(self.faces, n, run=run_chunks))
             object.__setattr__(self, "_twins", twins)
         return twins
+
+    def _twins_closed(self) -> bool:
+        """Whether every half-edge has its twin, found once per mesh and cached.
+
+        True for a closed, consistently wound, manifold mesh: slicing then looks
+        for no open ends, and ``vecslice.staircase`` measures the mesh as given.
+        """
+        closed = self._closed
+        if closed is None:
+            twins = self._half_edge_twins()
+            closed = bool(twins.shape[0] == 0 or twins.min() >= 0)
+            object.__setattr__(self, "_closed", closed)
+        return closed
 
     def _narrow_faces(self) -> NDArray[np.int32]:
         """``faces`` as int32, built once per mesh and cached like the twins.
@@ -455,6 +474,7 @@ class Mesh:
         moved = self.vertices + np.array(d, dtype=np.int64)
         out = Mesh._trusted(moved, self.faces, self.load_info)
         object.__setattr__(out, "_twins", self._twins)  # same faces, same topology
+        object.__setattr__(out, "_closed", self._closed)
         object.__setattr__(out, "_faces32", self._faces32)
         zmin, zmax = self._corner_zrange()  # the model moves with its vertices
         object.__setattr__(out, "_zcorners", (zmin + d[2], zmax + d[2]))

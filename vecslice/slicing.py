@@ -142,9 +142,9 @@ def slice_contours(
 def _contours(mesh: Any, z: NDArray[np.int64], stitch: bool) -> LayerPaths:
     """:func:`slice_contours` on checked input.
 
-    The mesh's half-edge twins and int32 faces are built on its first slice and
-    cached on it, so every later slice of the same mesh (other heights,
-    ``vecslice.sweep``) reuses them.
+    The mesh's half-edge twins (and whether it has open ends) and int32 faces
+    are built on its first slice and cached on it, so every later slice of the
+    same mesh (other heights, ``vecslice.sweep``) reuses them.
     """
     vertices, faces = mesh.vertices, mesh.faces
     order = np.argsort(z, kind="stable")
@@ -164,7 +164,7 @@ def _contours(mesh: Any, z: NDArray[np.int64], stitch: bool) -> LayerPaths:
     coords, ring_offsets, layer_offsets, o_coords, o_rings, o_layers = (
         trace_contours(vertices, faces, twin, vert_layer, zs, out_layer,
                        _chunks_for(faces.shape[0], zs.shape[0]), run=run_chunks,
-                       faces32=faces32)
+                       faces32=faces32, closed=mesh._twins_closed())
     )
     open_chains = LayerPaths._trusted(o_coords, o_rings, o_layers)
     loops = LayerPaths._trusted(coords, ring_offsets, layer_offsets, open_chains)

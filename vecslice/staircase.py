@@ -93,7 +93,7 @@ def _solid(mesh: Any) -> _Solid:
     volume); any other is measured after :meth:`Mesh.repaired` (windings made
     consistent and outward shell by shell, duplicate faces dropped).
     """
-    if bool((mesh._half_edge_twins() >= 0).all()):
+    if mesh._twins_closed():
         vol = mesh.volume
         if vol >= 0:
             return _Solid(mesh.vertices, mesh.faces, vol)

@@ -293,6 +293,19 @@ def test_int32_faces_are_made_once_per_mesh_and_equal_its_faces():
     assert mesh.translated(1000, 0, 0)._narrow_faces() is f32  # same faces
 
 
+def test_closed_topology_is_found_once_per_mesh_and_kept_by_translated_copies():
+    box = vs.load_mesh(trimesh.creation.box((10, 10, 10)))
+    assert box._closed is None
+    vs.slice_contours(box, [0])
+    assert box._closed is True  # found by the first slice, with the twins
+    assert box.translated(0, 0, 1000)._closed is True
+    # a face taken away: three open edges, and the open chain is still found
+    opened = vs.Mesh.from_arrays(box.vertices, box.faces[1:])
+    loops = vs.slice_contours(opened, [0], stitch=False)
+    assert opened._closed is False
+    assert loops.n_rings + loops.open.n_rings == 1
+
+
 def test_slice_contours_checks_the_heights_it_cuts(write_when_copied, monkeypatch):
     """Audit s26 state D2: slice_z was checked (range, then sorted or not) in the
     caller's memory, which the kernels then read: a write by another thread in
