@@ -53,8 +53,9 @@ def write_when_copied(monkeypatch):
     """Another thread's write to a caller's array, just before vecslice copies it.
 
     ``arm(target, index, value)`` makes ``target[index] = value`` happen once,
-    when vecslice adopts ``target`` or a view of it (``vecslice.ragged.adopt``:
-    the copy a container or function keeps). A check made on the caller's memory
+    when vecslice adopts ``target`` or a view of it (``vecslice.ragged.adopt``,
+    or the copy ``ragged.private_int_extremes`` takes: the copy a container or
+    function keeps). A check made on the caller's memory
     before that copy misses the write; one made on the copy sees it. No copy, no
     write. ``arm`` returns the list of the writes done so far (all arms).
     """
@@ -67,7 +68,7 @@ def write_when_copied(monkeypatch):
     armed: list[tuple[np.ndarray, object, object]] = []
     done: list[object] = []
 
-    def adopt(new, given):
+    def write(given):
         for entry in list(armed):
             target, index, value = entry
             if given is target or (isinstance(given, np.ndarray)
@@ -75,7 +76,19 @@ def write_when_copied(monkeypatch):
                 target[index] = value
                 done.append(index)
                 armed.remove(entry)
+
+    def adopt(new, given):
+        write(given)
         return real(new, given)
+
+    real_copy = ragged._copy_extremes
+
+    def copy_extremes(src, dst):  # the copy that private_int_extremes keeps
+        if dst is not None:
+            write(src)
+        return real_copy(src, dst)
+
+    monkeypatch.setattr(ragged, "_copy_extremes", copy_extremes)
 
     # every module that took the name (imported first, so none keeps the patch)
     for name in ("cura_slicing", "cura_stl", "layerparts", "mesh", "metrics",

@@ -37,7 +37,7 @@ from vecslice.meshcheck import (
     shells,
 )
 from vecslice.meshfile import read_mesh_file, trimesh_arrays
-from vecslice.ragged import private_int_array
+from vecslice.ragged import private_int_extremes
 from vecslice.units import COORD_LIMIT, to_microns
 
 if TYPE_CHECKING:
@@ -72,22 +72,23 @@ def _as_vertices(value: ArrayLike) -> NDArray[np.int64]:
             "with vecslice.load_mesh() or convert millimetres with "
             "vecslice.to_microns()"
         )
-    v = private_int_array(value, "vertices", ndim=2, width=3)
-    check_coord_range(v, "vertices")
+    v, lo, hi = private_int_extremes(value, "vertices", ndim=2, width=3)
+    if not -COORD_LIMIT < lo <= hi < COORD_LIMIT:
+        check_coord_range(v, "vertices")  # raises, naming the row
     return v
 
 
 def _as_faces(value: ArrayLike, n_vertices: int) -> NDArray[np.int64]:
     """The mesh's own copy of ``value`` (frozen), checked as :func:`_as_vertices`."""
-    f = private_int_array(value, "faces", ndim=2, width=3)
+    f, lo, hi = private_int_extremes(value, "faces", ndim=2, width=3)
     if f.shape[0] == 0:
         raise InputValueError(
             "`faces` must hold at least one triangle; got an empty mesh "
             f"(faces of shape {f.shape})"
         )
-    flat = f.reshape(-1)
-    if flat.min() >= 0 and flat.max() < n_vertices:
+    if lo >= 0 and hi < n_vertices:
         return f
+    flat = f.reshape(-1)
     bad = np.flatnonzero((flat < 0) | (flat >= n_vertices))
     if bad.size:
         i = int(bad[0])

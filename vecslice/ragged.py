@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vecslice._validate import as_int_array, check_coord_range, check_offsets
 from vecslice.errors import InputIndexError, InputTypeError
+from vecslice.units import COORD_LIMIT
 
 __all__ = [
     "RaggedContainer",
@@ -36,8 +37,10 @@ __all__ = [
     "nested_offsets",
     "offsets_from_lengths",
     "private_int_array",
+    "private_int_extremes",
     "ragged_take",
     "reduce_frozen",
+    "value_extremes",
 ]
 
 C = TypeVar("C", bound="RaggedContainer")
@@ -107,12 +110,17 @@ def adopt(new: NDArray[Any], given: object) -> NDArray[Any]:
     copied unless it is frozen already (immutable, so it is shared) or numpy made
     it afresh from ``given`` (a list, or an array of another dtype or order).
     """
+    return freeze(new.copy() if _needs_copy(new, given) else new)
+
+
+def _needs_copy(new: NDArray[Any], given: object) -> bool:
+    """Whether :func:`adopt` copies ``new``: not frozen, not numpy's fresh array."""
     if is_frozen(new):
-        return new
+        return False
     fresh = isinstance(given, (list, tuple)) or (
         isinstance(given, np.ndarray) and not np.may_share_memory(new, given)
     )
-    return freeze(new if fresh and new.flags.owndata else new.copy())
+    return not (fresh and new.flags.owndata)
 
 
 def private_int_array(
@@ -136,6 +144,64 @@ def private_int_array(
     return adopt(as_int_array(value, name, ndim=ndim, width=width), value)
 
 
+def private_int_extremes(
+    value: ArrayLike, name: str, *, ndim: int, width: int | None = None
+) -> tuple[NDArray[np.int64], int, int]:
+    """:func:`private_int_array` and the smallest and largest value of the result.
+
+    The copy (where one is taken) and the extremes are made in chunks on threads,
+    each chunk measured right after it was copied, while it is in cache: the
+    extremes are those of the values kept. For an empty result they are
+    ``(0, 0)``.
+    """
+    new = as_int_array(value, name, ndim=ndim, width=width)
+    if new.size == 0:
+        return adopt(new, value), 0, 0
+    if _needs_copy(new, value):
+        own = np.empty_like(new)
+        lo, hi = _copy_extremes(new.reshape(-1), own.reshape(-1))
+        return freeze(own), lo, hi
+    kept = adopt(new, value)  # frozen already, or numpy's fresh array: no copy
+    lo, hi = _copy_extremes(kept.reshape(-1), None)
+    return kept, lo, hi
+
+
+def value_extremes(a: NDArray[np.int64]) -> tuple[int, int]:
+    """(min, max) of the non-empty C-contiguous int64 ``a``, in chunks on threads."""
+    return _copy_extremes(a.reshape(-1), None)
+
+
+_EXTREMES_CHUNK = 1 << 18  # values (2 MiB) per chunk of _copy_extremes
+
+
+def _copy_extremes(
+    src: NDArray[np.int64], dst: NDArray[np.int64] | None
+) -> tuple[int, int]:
+    """(min, max) of the flat non-empty ``src``, copied first to ``dst`` if given.
+
+    In chunks on threads (numpy releases the GIL to copy and reduce); with
+    ``dst``, each chunk is measured in ``dst`` after it was copied.
+    """
+    from vecslice._kernels._jit import even_chunks
+    from vecslice._threads import run_chunks
+
+    bounds = even_chunks(src.shape[0], _EXTREMES_CHUNK)
+    found = np.empty((bounds.shape[0] - 1, 2), dtype=np.int64)
+    chunk_of = {int(b): c for c, b in enumerate(bounds[:-1])}
+
+    def measure(lo: int, hi: int) -> None:
+        part = src[lo:hi]
+        if dst is not None:
+            np.copyto(dst[lo:hi], part)
+            part = dst[lo:hi]
+        row = found[chunk_of[lo]]
+        row[0] = part.min()
+        row[1] = part.max()
+
+    run_chunks(measure, bounds)
+    return int(found[:, 0].min()), int(found[:, 1].max())
+
+
 def nested_offsets(
     coords: ArrayLike, levels: Sequence[tuple[str, ArrayLike]], name: str = "coords"
 ) -> list[NDArray[np.int64]]:
@@ -154,8 +220,10 @@ def nested_offsets(
     >>> r.tolist(), lo.tolist()
     ([0, 3], [0, 1])
     """
-    out = [private_int_array(coords, name, ndim=2, width=2)]
-    check_coord_range(out[0], name)
+    c, lo, hi = private_int_extremes(coords, name, ndim=2, width=2)
+    if not -COORD_LIMIT < lo <= hi < COORD_LIMIT:
+        check_coord_range(c, name)  # raises, naming the row
+    out = [c]
     below = out[0].shape[0]
     for level, offsets in levels:
         o = private_int_array(offsets, level, ndim=1)

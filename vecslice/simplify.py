@@ -23,7 +23,7 @@ from vecslice._validate import check_coord_range, check_int
 from vecslice.errors import InputTypeError, InputValueError, LayoutError
 from vecslice.interrupt import keyboard_interrupts
 from vecslice.paths import Paths
-from vecslice.ragged import RaggedContainer, private_int_array
+from vecslice.ragged import RaggedContainer, private_int_array, value_extremes
 from vecslice.units import COORD_LIMIT
 
 __all__ = ["remove_degenerate_vertices", "ring_perimeters", "simplify"]
@@ -90,7 +90,7 @@ def _check_moved_within_limit(out: NDArray[np.int64], max_deviation: int) -> Non
     """
     if out.size == 0:
         return
-    lo, hi = int(out.min()), int(out.max())
+    lo, hi = value_extremes(out)
     if lo <= -COORD_LIMIT or hi >= COORD_LIMIT:
         far = hi if hi >= COORD_LIMIT else lo
         raise InputValueError(

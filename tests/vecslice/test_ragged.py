@@ -8,10 +8,13 @@ import pickle
 import numpy as np
 import pytest
 import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import vecslice as vs
+from vecslice import ragged
 from vecslice.layerparts import LayerParts
-from vecslice.ragged import adopt, freeze, is_frozen
+from vecslice.ragged import adopt, freeze, is_frozen, private_int_extremes
 
 
 def assert_immutable(a: np.ndarray) -> None:
@@ -164,6 +167,50 @@ def test_adopt_copies_only_what_the_caller_can_write():
     assert not np.shares_memory(adopt(fresh, fresh), fresh)
     frozen = freeze(np.arange(4))
     assert adopt(frozen, frozen) is frozen
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.integers(-(2**62), 2**62), min_size=1, max_size=40),
+       st.integers(1, 7), st.sampled_from(["writable", "frozen", "list", "uint32"]))
+def test_private_int_extremes_are_those_of_the_private_array(values, chunk, given):
+    a = np.array(values, dtype=np.int64)
+    if given == "uint32":
+        a = np.abs(a) % 2**32
+        arg = a.astype(np.uint32)
+    else:
+        arg = {"writable": a, "frozen": freeze(a.copy()), "list": values}[given]
+    with pytest.MonkeyPatch.context() as mp:
+        # chunks of a few values: many chunks, on threads
+        mp.setattr(ragged, "_EXTREMES_CHUNK", chunk)
+        kept, lo, hi = private_int_extremes(arg, "x", ndim=1)
+    assert (lo, hi) == (int(a.min()), int(a.max()))
+    assert kept.tolist() == a.tolist() and is_frozen(kept)
+    if isinstance(arg, np.ndarray):
+        assert (kept is arg) == (given == "frozen")
+        assert given == "frozen" or not np.shares_memory(kept, arg)
+
+
+def test_private_int_extremes_of_an_empty_array():
+    kept, lo, hi = private_int_extremes(np.empty((0, 3), np.int64), "v", ndim=2,
+                                        width=3)
+    assert kept.shape == (0, 3) and (lo, hi) == (0, 0)
+
+
+def test_extremes_are_checked_on_the_copy_not_the_callers_array(monkeypatch):
+    """The range is that of the values copied: a write to the caller's array
+    after a chunk was copied changes neither the copy nor the extremes."""
+    monkeypatch.setattr(ragged, "_EXTREMES_CHUNK", 2)
+    a = np.arange(6, dtype=np.int64)
+    real = np.copyto
+
+    def copy_then_write(dst, src, **kw):
+        real(dst, src, **kw)
+        a[:] = 2**40  # the caller writes everything, chunk by chunk too late
+
+    monkeypatch.setattr(ragged.np, "copyto", copy_then_write)
+    kept, lo, hi = private_int_extremes(a, "x", ndim=1)
+    assert (lo, hi) == (int(kept.min()), int(kept.max()))
+    assert lo < 2**40 == hi  # copied partly before, partly after the writes
 
 
 @pytest.mark.parametrize("kind", ["SlicedModel", "LayerPaths", "Paths", "LayerParts"])
