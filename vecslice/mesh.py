@@ -19,7 +19,6 @@ from numpy.typing import ArrayLike, NDArray
 
 from vecslice._validate import (
     check_bool,
-    check_coord_range,
     check_int,
     check_option,
 )
@@ -37,7 +36,7 @@ from vecslice.meshcheck import (
     shells,
 )
 from vecslice.meshfile import read_mesh_file, trimesh_arrays
-from vecslice.ragged import private_int_extremes
+from vecslice.ragged import private_coords, private_int_extremes
 from vecslice.units import COORD_LIMIT, to_microns
 
 if TYPE_CHECKING:
@@ -72,10 +71,7 @@ def _as_vertices(value: ArrayLike) -> NDArray[np.int64]:
             "with vecslice.load_mesh() or convert millimetres with "
             "vecslice.to_microns()"
         )
-    v, lo, hi = private_int_extremes(value, "vertices", ndim=2, width=3)
-    if not -COORD_LIMIT < lo <= hi < COORD_LIMIT:
-        check_coord_range(v, "vertices")  # raises, naming the row
-    return v
+    return private_coords(value, "vertices", width=3)
 
 
 def _as_faces(value: ArrayLike, n_vertices: int) -> NDArray[np.int64]:

@@ -36,6 +36,7 @@ __all__ = [
     "is_frozen",
     "nested_offsets",
     "offsets_from_lengths",
+    "private_coords",
     "private_int_array",
     "private_int_extremes",
     "ragged_take",
@@ -171,6 +172,18 @@ def value_extremes(a: NDArray[np.int64]) -> tuple[int, int]:
     return _copy_extremes(a.reshape(-1), None)
 
 
+def private_coords(value: ArrayLike, name: str, *, width: int) -> NDArray[np.int64]:
+    """:func:`private_int_extremes` of (N, ``width``) coordinates, range-checked.
+
+    Raises ``InputValueError`` naming the first row with a value at or beyond
+    ``COORD_LIMIT`` (2**30 µm), checked on the private copy.
+    """
+    a, lo, hi = private_int_extremes(value, name, ndim=2, width=width)
+    if not -COORD_LIMIT < lo <= hi < COORD_LIMIT:
+        check_coord_range(a, name)  # raises, naming the row
+    return a
+
+
 _EXTREMES_CHUNK = 1 << 18  # values (2 MiB) per chunk of _copy_extremes
 
 
@@ -220,10 +233,7 @@ def nested_offsets(
     >>> r.tolist(), lo.tolist()
     ([0, 3], [0, 1])
     """
-    c, lo, hi = private_int_extremes(coords, name, ndim=2, width=2)
-    if not -COORD_LIMIT < lo <= hi < COORD_LIMIT:
-        check_coord_range(c, name)  # raises, naming the row
-    out = [c]
+    out = [private_coords(coords, name, width=2)]
     below = out[0].shape[0]
     for level, offsets in levels:
         o = private_int_array(offsets, level, ndim=1)
