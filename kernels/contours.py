@@ -24,10 +24,6 @@ from ._types import B1, B1_1D, B1_1D_OUT, I64, I64_1D, I64_1D_OUT, I64_2D, I64_2
 from .crossings import DOWN_EDGE, UP_EDGE
 from .sorting import lower_bound, stable_argsort
 
-_OUT = types.Tuple(
-    (I64_2D_OUT, I64_1D_OUT, I64_1D_OUT, I64_2D_OUT, I64_1D_OUT, I64_1D_OUT)
-)
-
 
 @kernel(inline="always")
 def _code(l0, l1, l2, k):
@@ -111,7 +107,6 @@ _U8_W = types.uint8[::1]
 _I32_W = types.int32[::1]
 _I64_W = types.int64[::1]
 _I32_1D = types.Array(types.int32, 1, "C", readonly=True)
-_U8_1D = types.Array(types.uint8, 1, "C", readonly=True)
 
 
 @kernel(I64(I64_1D, I64_1D, I64_1D, I64))

@@ -162,7 +162,7 @@ def private_int_extremes(
         own = np.empty_like(new)
         lo, hi = _copy_extremes(new.reshape(-1), own.reshape(-1))
         return freeze(own), lo, hi
-    kept = adopt(new, value)  # frozen already, or numpy's fresh array: no copy
+    kept = freeze(new)  # frozen already, or numpy's fresh array: no copy
     lo, hi = _copy_extremes(kept.reshape(-1), None)
     return kept, lo, hi
 
