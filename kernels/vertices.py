@@ -3,8 +3,8 @@
 import numpy as np
 from numba import types
 
-from ._jit import kernel, run_serial
-from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT
+from ._jit import even_chunks, kernel, run_serial
+from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT, U8_1D
 from .sorting import mix_hash, table_bits
 
 _PART_SIZE = 2048  # about this many vertices per partition: its table stays in cache
@@ -12,39 +12,80 @@ _CHUNK_PARTS = 64  # partitions per chunk of matching
 _CHUNK_FACES = 1 << 16  # faces per chunk of the face passes
 
 
-@kernel(types.Tuple((I64_1D_OUT, I64))(I64_2D, types.int64[::1], types.uint64[::1]))
-def _partition_vertices(vertices, out_order, out_hashes):
+def _partition_bits(n):
+    """Bits of the partition number: about ``_PART_SIZE`` vertices per partition."""
+    pbits = 0
+    while (1 << pbits) * _PART_SIZE < n and pbits < 20:
+        pbits += 1
+    return pbits
+
+
+@kernel(inline="always")
+def _part_of(vertices, i, pshift, pbits):
+    """Hash of vertex ``i``'s position and its partition (its top ``pbits`` bits)."""
+    h = mix_hash(vertices[i, 0], vertices[i, 1], vertices[i, 2])
+    return h, (np.int64(h >> pshift) if pbits > 0 else np.int64(0))
+
+
+@kernel(types.void(I64_2D, I64, I64, I64, types.int64[::1]))
+def _count_parts(vertices, pbits, i0, i1, out_counts):
+    """Add the vertices ``i0:i1`` of every partition to ``out_counts`` (zeros)."""
+    pshift = np.uint64(64 - pbits) if pbits > 0 else np.uint64(63)
+    for i in range(i0, i1):
+        out_counts[_part_of(vertices, i, pshift, pbits)[1]] += 1
+
+
+@kernel(types.void(I64_2D, I64, I64, I64, types.int64[::1], types.int64[::1],
+                   types.uint64[::1]))
+def _fill_parts(vertices, pbits, i0, i1, io_fill, out_order, out_hashes):
+    """Write the vertices ``i0:i1`` at their partitions' places ``io_fill``.
+
+    ``io_fill[p]`` is where partition ``p``'s next vertex of this chunk goes
+    (advanced here); the hash goes beside it in ``out_hashes``, so that matching
+    reads no vertex it does not compare.
+    """
+    pshift = np.uint64(64 - pbits) if pbits > 0 else np.uint64(63)
+    for i in range(i0, i1):
+        h, p = _part_of(vertices, i, pshift, pbits)
+        out_order[io_fill[p]] = i
+        out_hashes[io_fill[p]] = h
+        io_fill[p] += 1
+
+
+_CHUNK_VERTICES = 1 << 17  # vertices per chunk of partitioning
+
+
+def _partition(vertices, run):
     """Vertices partitioned by the top bits of a hash of their position.
 
-    Returns ``(part_offsets, pbits)``: partition ``p`` holds the vertices
-    ``out_order[part_offsets[p]:part_offsets[p + 1]]`` in index order (a
-    counting sort), their hashes beside them in ``out_hashes`` (both (V,), given
-    by the caller: numpy puts large arrays on huge pages, where numba's own
-    allocations take a page fault per 4 kB of fresh memory), ``2**pbits``
-    partitions.
+    Returns ``(order, hashes, part_offsets, pbits)``: partition ``p`` holds the
+    vertices ``order[part_offsets[p]:part_offsets[p + 1]]`` in index order, their
+    hashes beside them in ``hashes``; ``2**pbits`` partitions. A counting sort in
+    chunks of vertices given to ``run``: each chunk counts its vertices per
+    partition, and then writes them after those of the chunks before it (so a
+    partition stays in index order whatever order the chunks run in).
     """
     n = vertices.shape[0]
-    pbits = 0
-    while (np.int64(1) << pbits) * _PART_SIZE < n and pbits < 20:
-        pbits += 1
-    n_parts = np.int64(1) << pbits
-    pshift = np.uint64(64 - pbits) if pbits > 0 else np.uint64(63)
+    pbits = _partition_bits(n)
+    n_parts = 1 << pbits
+    bounds = even_chunks(n, _CHUNK_VERTICES)
+    n_chunks = bounds.shape[0] - 1
+    counts = np.zeros((max(n_chunks, 1), n_parts), dtype=np.int64)
+    index = {int(bounds[c]): c for c in range(n_chunks)}
+    run(lambda i0, i1: _count_parts(vertices, pbits, i0, i1, counts[index[i0]]),
+        bounds)
     part_offsets = np.zeros(n_parts + 1, dtype=np.int64)
-    for i in range(n):
-        h = mix_hash(vertices[i, 0], vertices[i, 1], vertices[i, 2])
-        p = np.int64(h >> pshift) if pbits > 0 else 0
-        part_offsets[p + 1] += 1
-    for p in range(n_parts):
-        part_offsets[p + 1] += part_offsets[p]
-    fill = part_offsets[:-1].copy()
-    # the hashes beside the order: no random reads when matching
-    for i in range(n):
-        h = mix_hash(vertices[i, 0], vertices[i, 1], vertices[i, 2])
-        p = np.int64(h >> pshift) if pbits > 0 else 0
-        out_order[fill[p]] = i
-        out_hashes[fill[p]] = h
-        fill[p] += 1
-    return part_offsets, pbits
+    np.cumsum(counts.sum(axis=0), out=part_offsets[1:])
+    # chunk c's first place in partition p: the partition's start, then the
+    # vertices of p in the chunks before c
+    fill = np.cumsum(counts, axis=0)
+    fill -= counts
+    fill += part_offsets[:-1]
+    order = np.empty(n, dtype=np.int64)
+    hashes = np.empty(n, dtype=np.uint64)
+    run(lambda i0, i1: _fill_parts(vertices, pbits, i0, i1, fill[index[i0]], order,
+                                   hashes), bounds)
+    return order, hashes, part_offsets, pbits
 
 
 _U64_1D = types.Array(types.uint64, 1, "C", readonly=True)
@@ -84,24 +125,53 @@ def _match_partitions(vertices, part_offsets, order, hashes, pbits, p0, p1, out_
                 s = (s + 1) & mask
 
 
-@kernel(I64(I64_1D, types.int64[::1], types.int64[::1]))
-def _number_groups(rep, out_group, out_first):
-    """Groups from the first vertex ``rep[i]`` of every position; returns their number.
+@kernel(I64(types.int64[::1]))
+def _number_groups(io_rep):
+    """Turn ``io_rep`` into the vertices' groups, in place; return their number.
 
-    ``out_group[i]`` is vertex ``i``'s group, ``out_first[g]`` the first vertex of
-    group ``g`` (for the groups there are); both (V,), given by the caller.
+    ``io_rep[i]`` is the first vertex at vertex ``i``'s position (``i`` itself
+    for a first occurrence, else an earlier vertex, already renumbered): a first
+    occurrence opens the next group, any other vertex takes its first's group.
+    Groups are thus numbered in order of first occurrence.
     """
-    n = rep.shape[0]
     n_groups = 0
-    for i in range(n):
-        j = rep[i]
+    for i in range(io_rep.shape[0]):
+        j = io_rep[i]
         if j == i:
-            out_group[i] = n_groups
-            out_first[n_groups] = i
+            io_rep[i] = n_groups
             n_groups += 1
         else:
-            out_group[i] = out_group[j]
+            io_rep[i] = io_rep[j]
     return n_groups
+
+
+@kernel(I64_1D_OUT(I64_1D, I64))
+def _first_of_groups(group, n_groups):
+    """The first vertex of each of the ``n_groups`` groups.
+
+    Groups are numbered in order of first occurrence: group ``g`` first appears
+    at the first ``i`` with ``group[i] == g``, after the first vertex of group
+    ``g - 1``, so one pass finds them all.
+    """
+    first = np.empty(n_groups, dtype=np.int64)
+    g = 0
+    for i in range(group.shape[0]):
+        if group[i] == g:
+            first[g] = i
+            g += 1
+    return first
+
+
+def _groups(vertices, run):
+    """``(group, n_groups)`` of :func:`merge_vertices`, without ``first``."""
+    n = vertices.shape[0]
+    order, hashes, part_offsets, pbits = _partition(vertices, run)
+    group = np.empty(n, dtype=np.int64)  # first the first vertex at each position
+    n_parts = part_offsets.shape[0] - 1
+    bounds = np.append(np.arange(0, n_parts, _CHUNK_PARTS), n_parts)
+    run(lambda p0, p1: _match_partitions(vertices, part_offsets, order, hashes,
+                                         pbits, p0, p1, group), bounds)
+    return group, _number_groups(group)
 
 
 def merge_vertices(vertices, run=run_serial):
@@ -117,24 +187,15 @@ def merge_vertices(vertices, run=run_serial):
     hash table, the first vertex of every position, chunks of partitions given to
     ``run`` (``run(fn, bounds)`` calls ``fn(lo, hi)`` for every chunk
     ``bounds[c]:bounds[c + 1]``, in any order or at once; by default one after
-    another). A last pass numbers the groups in index order.
+    another). A last pass numbers the groups in index order, in place of the
+    first vertices it reads. The partitioning goes in chunks of vertices to
+    ``run`` too.
     """
-    n = vertices.shape[0]
-    order = np.empty(n, dtype=np.int64)
-    hashes = np.empty(n, dtype=np.uint64)
-    part_offsets, pbits = _partition_vertices(vertices, order, hashes)
-    rep = np.empty(n, dtype=np.int64)
-    n_parts = part_offsets.shape[0] - 1
-    bounds = np.append(np.arange(0, n_parts, _CHUNK_PARTS), n_parts)
-    run(lambda p0, p1: _match_partitions(vertices, part_offsets, order, hashes,
-                                         pbits, p0, p1, rep), bounds)
-    group = np.empty(n, dtype=np.int64)
-    first = np.empty(n, dtype=np.int64)
-    n_groups = _number_groups(rep, group, first)
-    return group, first if n_groups == n else first[:n_groups].copy()
+    group, n_groups = _groups(vertices, run)
+    return group, _first_of_groups(group, n_groups)
 
 
-@kernel(I64(I64_2D, I64_1D, I64, I64, types.int64[::1]))
+@kernel(I64(I64_2D, I64_1D, I64, I64, types.uint8[::1]))
 def _mark_used(faces, group, f0, f1, out_used):
     """Mark the groups used by the faces ``f0:f1``; count the degenerate ones.
 
@@ -154,24 +215,24 @@ def _mark_used(faces, group, f0, f1, out_used):
     return count
 
 
-@kernel(types.Tuple((I64_2D_OUT, I64))(I64_2D, I64_1D, types.int64[::1]))
-def _kept_vertices(vertices, first, io_used):
+@kernel(types.Tuple((I64_2D_OUT, I64))(I64_2D, I64_1D, U8_1D, types.int64[::1]))
+def _kept_vertices(vertices, first, used, out_new_id):
     """Number the used groups in group order; return their first vertices.
 
-    ``io_used`` is renumbered in place (-1 for unused groups). Returns
-    ``(vertices, n_kept)``.
+    ``out_new_id[g]`` is the kept vertex of group ``g`` (-1 for unused groups,
+    those with ``used[g] == 0``). Returns ``(vertices, n_kept)``.
     """
     n_groups = first.shape[0]
     n_kept = 0
     for g in range(n_groups):
-        if io_used[g]:
-            io_used[g] = n_kept
+        if used[g]:
+            out_new_id[g] = n_kept
             n_kept += 1
         else:
-            io_used[g] = -1
+            out_new_id[g] = -1
     out_v = np.empty((n_kept, 3), dtype=np.int64)
     for g in range(n_groups):
-        k = io_used[g]
+        k = out_new_id[g]
         if k >= 0:
             out_v[k, 0] = vertices[first[g], 0]
             out_v[k, 1] = vertices[first[g], 1]
@@ -204,19 +265,20 @@ def clean_mesh(vertices, faces, merge, run=run_serial):
 
     Where nothing changes (no position repeated, no degenerate face, every vertex
     used) the arrays given are returned themselves, not copies: a clean mesh,
-    the usual input, costs no new arrays (and no fresh pages to fault in).
+    the usual input, costs no new arrays (and no fresh pages to fault in); its
+    scratch is then the partitioning's (order and hashes), the groups and one
+    byte per vertex.
 
     Preconditions: 0 <= faces < len(vertices).
     """
     n_v = vertices.shape[0]
     if merge:
-        group, first = merge_vertices(vertices, run)
+        group, n_groups = _groups(vertices, run)
     else:
         group = np.arange(n_v, dtype=np.int64)
-        first = group
-    n_groups = first.shape[0]
+        n_groups = n_v
     n_faces = faces.shape[0]
-    used = np.zeros(n_groups + 1, dtype=np.int64)
+    used = np.zeros(n_groups, dtype=np.uint8)
     bounds = np.append(np.arange(0, n_faces, _CHUNK_FACES), n_faces)
     n_chunks = bounds.shape[0] - 1
     deg = np.zeros(n_chunks + 1, dtype=np.int64)  # then: degenerate faces before
@@ -227,12 +289,14 @@ def clean_mesh(vertices, faces, merge, run=run_serial):
     run(mark, bounds)
     np.cumsum(deg, out=deg)
     n_deg = int(deg[n_chunks])
-    if n_groups == n_v and n_deg == 0 and used[:n_groups].all():
+    if n_groups == n_v and n_deg == 0 and used.all():
         return vertices, faces, 0, 0, 0  # every group is its own vertex, all used
     # groups are in order of their first vertex: numbering the used ones in group
     # order keeps the original vertex order
-    out_v, n_kept = _kept_vertices(vertices, first, used)
+    first = _first_of_groups(group, n_groups) if merge else group
+    new_id = np.empty(n_groups, dtype=np.int64)
+    out_v, n_kept = _kept_vertices(vertices, first, used, new_id)
     out_f = np.empty((n_faces - n_deg, 3), dtype=np.int64)
-    run(lambda f0, f1: _write_faces(faces, group, used, f0, f1,
+    run(lambda f0, f1: _write_faces(faces, group, new_id, f0, f1,
                                     f0 - deg[f0 // _CHUNK_FACES], out_f), bounds)
     return out_v, out_f, n_v - n_groups, n_groups - int(n_kept), n_deg

@@ -91,3 +91,40 @@ def test_clean_mesh_returns_a_clean_mesh_itself(merge):
     f_deg = np.vstack([f, [[0, 0, 1]]])  # a degenerate face
     got = clean_mesh(v, f_deg, merge)
     assert got[1].tolist() == f.tolist() and got[4] == 1
+
+
+@given(st.lists(st.tuples(*[st.integers(-3, 3)] * 3), min_size=1, max_size=300),
+       st.integers(1, 40))
+def test_partition_in_chunks_is_a_stable_counting_sort(pts, chunk):
+    # chunks run last to first: each still writes after the chunks before it, so
+    # every partition lists its vertices in index order, hashes beside them
+    from unittest import mock
+
+    from vecslice._kernels import vertices
+    from vecslice._kernels.sorting import mix_hash
+
+    v = np.array(pts, dtype=np.int64)
+    with mock.patch.object(vertices, "_CHUNK_VERTICES", chunk):
+        order, hashes, offsets, pbits = vertices._partition(v, run_reversed)
+    h = np.array([mix_hash(*map(np.int64, p)) for p in pts], dtype=np.uint64)
+    part = (h >> np.uint64(64 - pbits)).astype(np.int64) if pbits else np.zeros(
+        len(pts), dtype=np.int64)
+    assert order.tolist() == np.argsort(part, kind="stable").tolist()
+    assert hashes.tolist() == h[order].tolist()
+    assert offsets.tolist() == [0, *np.cumsum(np.bincount(part, minlength=2**pbits))]
+
+
+def test_partition_of_many_vertices_uses_several_partitions():
+    # 2**pbits partitions of about 2048 vertices: the top hash bits pick them
+    from vecslice._kernels import vertices
+
+    rng = np.random.default_rng(5)
+    v = rng.integers(-1000, 1000, size=(20_000, 3)).astype(np.int64)
+    order, hashes, offsets, pbits = vertices._partition(v, run_reversed)
+    assert pbits == 4 and offsets.shape == (17,) and offsets[-1] == 20_000
+    assert sorted(order.tolist()) == list(range(20_000))
+    part = (hashes >> np.uint64(60)).astype(np.int64)
+    assert (np.diff(part) >= 0).all()  # grouped by partition
+    for p in range(16):
+        seg = order[offsets[p]:offsets[p + 1]]
+        assert (np.diff(seg) > 0).all() and (part[offsets[p]:offsets[p + 1]] == p).all()

@@ -48,7 +48,7 @@ print(json.dumps({"made": made, "compiled": compiled}))
 # it (README, "first run") before adding a kernel.
 DEMO_KERNELS = {
     # (the demo mesh is clean: its arrays are kept as given, nothing is rewritten)
-    "vertices": {"_partition_vertices", "_match_partitions", "_number_groups",
+    "vertices": {"_count_parts", "_fill_parts", "_match_partitions", "_number_groups",
                  "_mark_used"},
     "topology": {"_pack_half_edges", "_match_buckets"},
     "contours": {"_vertex_layers_range", "_even_suffix", "_plan_range",
