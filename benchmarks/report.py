@@ -18,7 +18,9 @@ they disagree.
 The libraries are interleaved within each repeat (so a change of machine load hits
 all of them alike); ratios are taken within a repeat and reported as the median
 with the range over repeats (a repeat of the scaling row is each size's median
-over ``SCALING_ROUNDS`` interleaved rounds). The table ends with the machine, its
+over ``SCALING_ROUNDS`` interleaved rounds, and one of the second-slice row the
+medians of ``SLICE_ROUNDS`` first and second slices, each pair on a new
+``Mesh``). The table ends with the machine, its
 load while measuring, the thread pools each library started and the CPU time / wall
 time each used (its effective parallelism), and the library versions.
 """
@@ -135,6 +137,7 @@ class Series:
 
 
 SCALING_ROUNDS = 3  # rounds of the three sizes per repeat of the scaling row
+SLICE_ROUNDS = 3  # first/second slice pairs per repeat of the second-slice row
 
 
 def scaling_repeat(timer: Timer, S: dict[str, Series], size_arrays: dict) -> None:
@@ -246,13 +249,18 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         return vs.slice_mesh(vs.Mesh.from_arrays(v, faces))
 
     def first_and_second(v, faces):
-        mesh = vs.Mesh.from_arrays(v, faces)
-        t = time.perf_counter()
-        vs.slice_contours(mesh, z)
-        first = time.perf_counter() - t
-        t = time.perf_counter()
-        vs.slice_contours(mesh, z + 50)  # other heights, same mesh
-        return first, time.perf_counter() - t
+        """Medians of SLICE_ROUNDS first and second slices, each pair on a new Mesh."""
+        firsts, seconds = [], []
+        for _ in range(SLICE_ROUNDS):
+            mesh = vs.Mesh.from_arrays(v, faces)
+            t = time.perf_counter()
+            vs.slice_contours(mesh, z)
+            firsts.append(time.perf_counter() - t)
+            t = time.perf_counter()
+            vs.slice_contours(mesh, z + 50)  # other heights, same mesh
+            seconds.append(time.perf_counter() - t)
+            del mesh
+        return statistics.median(firsts), statistics.median(seconds)
 
     eps = float(MAX_DEVIATION)
     # warm-up: JIT caches and lazy imports, and the thread pools each starts
@@ -364,6 +372,8 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
            "median over repeats with their range"]
     if not args.no_trimesh:  # the slow trimesh case runs in the first repeats only
         how.append(f"the trimesh row {min(args.repeat, args.trimesh_repeat)} of them")
+    how.append(f"in the second-slice row a repeat is the median of {SLICE_ROUNDS} "
+               "pairs, each on a new `Mesh`")
     if size_arrays:
         how.append(f"in the scaling row a repeat is the median of {SCALING_ROUNDS} "
                    "interleaved rounds of the sizes")
