@@ -466,7 +466,9 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
     then constant multiples, where 2-D arrays multiply by a stride read at run
     time. Inside the walk the indices are unsigned (every one is >= 0), which
     spares numba's wraparound of negative ones; together about a sixth less
-    time on five Benchies.
+    time on five Benchies. From face to face the walk waits for two loads in a
+    row (the third corner, then its layer): both candidate twins are loaded
+    beside the corners and one is kept by a mask (about 7% less time).
     """
     if k1 <= k0:
         return
@@ -510,7 +512,11 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
                     b = 3 * np.int64(faces[np.uint64(h + e)])  # above it
                     # the next face first: its loads do not wait for the stores
                     c = faces[np.uint64(h + e2)]
-                    tw = t1 if k < vert_layer[np.uint64(c)] else t2
+                    # pick by a mask, not ``t1 if ... else t2``: LLVM turns that
+                    # into one load from a selected address, which then waits
+                    # for the layer (a third load in a row from face to face)
+                    up = -np.int64(k < vert_layer[np.uint64(c)])
+                    tw = t2 ^ ((t1 ^ t2) & up)
                     x, y = _point_up(vertices, a, b, zk)
                     out_coords[np.uint64(2 * pos)] = x
                     out_coords[np.uint64(2 * pos + 1)] = y
