@@ -12,14 +12,6 @@ _CHUNK_PARTS = 64  # partitions per chunk of matching
 _CHUNK_FACES = 1 << 16  # faces per chunk of the face passes
 
 
-def _partition_bits(n):
-    """Bits of the partition number: about ``_PART_SIZE`` vertices per partition."""
-    pbits = 0
-    while (1 << pbits) * _PART_SIZE < n and pbits < 20:
-        pbits += 1
-    return pbits
-
-
 @kernel(inline="always")
 def _part_of(vertices, i, pshift, pbits):
     """Hash of vertex ``i``'s position and its partition (its top ``pbits`` bits)."""
@@ -55,7 +47,7 @@ def _fill_parts(vertices, pbits, i0, i1, io_fill, out_order, out_hashes):
 _CHUNK_VERTICES = 1 << 17  # vertices per chunk of partitioning
 
 
-def _partition(vertices, run):
+def _partition(vertices, run=run_serial):
     """Vertices partitioned by the top bits of a hash of their position.
 
     Returns ``(order, hashes, part_offsets, pbits)``: partition ``p`` holds the
@@ -66,7 +58,9 @@ def _partition(vertices, run):
     partition stays in index order whatever order the chunks run in).
     """
     n = vertices.shape[0]
-    pbits = _partition_bits(n)
+    pbits = 0  # about _PART_SIZE vertices per partition
+    while (1 << pbits) * _PART_SIZE < n and pbits < 20:
+        pbits += 1
     n_parts = 1 << pbits
     bounds = even_chunks(n, _CHUNK_VERTICES)
     n_chunks = bounds.shape[0] - 1
@@ -162,7 +156,7 @@ def _first_of_groups(group, n_groups):
     return first
 
 
-def _groups(vertices, run):
+def _groups(vertices, run=run_serial):
     """``(group, n_groups)`` of :func:`merge_vertices`, without ``first``."""
     n = vertices.shape[0]
     order, hashes, part_offsets, pbits = _partition(vertices, run)
