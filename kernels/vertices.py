@@ -3,7 +3,7 @@
 import numpy as np
 from numba import types
 
-from ._jit import even_chunks, kernel, run_serial
+from ._jit import kernel, run_serial
 from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT, U8_1D
 from .sorting import mix_hash, table_bits
 
@@ -44,7 +44,8 @@ def _fill_parts(vertices, pbits, i0, i1, io_fill, out_order, out_hashes):
         io_fill[p] += 1
 
 
-_CHUNK_VERTICES = 1 << 17  # vertices per chunk of partitioning
+_CHUNK_VERTICES = 1 << 17  # vertices per chunk of partitioning (at least)
+_COUNTS_LIMIT = 1 << 22  # counts of all chunks and partitions (32 MiB)
 
 
 def _partition(vertices, run=run_serial):
@@ -55,16 +56,18 @@ def _partition(vertices, run=run_serial):
     hashes beside them in ``hashes``; ``2**pbits`` partitions. A counting sort in
     chunks of vertices given to ``run``: each chunk counts its vertices per
     partition, and then writes them after those of the chunks before it (so a
-    partition stays in index order whatever order the chunks run in).
+    partition stays in index order whatever order the chunks run in). Chunks
+    are fewer where the partitions are very many: at most ``_COUNTS_LIMIT``
+    counts in all.
     """
     n = vertices.shape[0]
     pbits = 0  # about _PART_SIZE vertices per partition
     while (1 << pbits) * _PART_SIZE < n and pbits < 20:
         pbits += 1
     n_parts = 1 << pbits
-    bounds = even_chunks(n, _CHUNK_VERTICES)
-    n_chunks = bounds.shape[0] - 1
-    counts = np.zeros((max(n_chunks, 1), n_parts), dtype=np.int64)
+    n_chunks = max(1, min(-(-n // _CHUNK_VERTICES), _COUNTS_LIMIT // n_parts))
+    bounds = (n * np.arange(n_chunks + 1, dtype=np.int64)) // n_chunks
+    counts = np.zeros((n_chunks, n_parts), dtype=np.int64)
     index = {int(bounds[c]): c for c in range(n_chunks)}
     run(lambda i0, i1: _count_parts(vertices, pbits, i0, i1, counts[index[i0]]),
         bounds)

@@ -94,18 +94,27 @@ def test_clean_mesh_returns_a_clean_mesh_itself(merge):
 
 
 @given(st.lists(st.tuples(*[st.integers(-3, 3)] * 3), min_size=1, max_size=300),
-       st.integers(1, 40))
-def test_partition_in_chunks_is_a_stable_counting_sort(pts, chunk):
+       st.integers(1, 40), st.integers(1, 500))
+def test_partition_in_chunks_is_a_stable_counting_sort(pts, chunk, limit):
     # chunks run last to first: each still writes after the chunks before it, so
-    # every partition lists its vertices in index order, hashes beside them
+    # every partition lists its vertices in index order, hashes beside them; the
+    # count limit makes chunks fewer (and larger) than the chunk size asks
     from unittest import mock
 
     from vecslice._kernels import vertices
     from vecslice._kernels.sorting import mix_hash
 
     v = np.array(pts, dtype=np.int64)
-    with mock.patch.object(vertices, "_CHUNK_VERTICES", chunk):
-        order, hashes, offsets, pbits = vertices._partition(v, run_reversed)
+    calls = []
+
+    def run(fn, bounds):
+        calls.append(len(bounds) - 1)
+        run_reversed(fn, bounds)
+
+    with (mock.patch.object(vertices, "_CHUNK_VERTICES", chunk),
+          mock.patch.object(vertices, "_COUNTS_LIMIT", limit)):
+        order, hashes, offsets, pbits = vertices._partition(v, run)
+    assert calls[0] == max(1, min(-(-len(pts) // chunk), limit))
     h = np.array([mix_hash(*map(np.int64, p)) for p in pts], dtype=np.uint64)
     part = (h >> np.uint64(64 - pbits)).astype(np.int64) if pbits else np.zeros(
         len(pts), dtype=np.int64)
