@@ -4,7 +4,7 @@ import numpy as np
 from numba import types
 
 from ._jit import kernel, run_serial
-from ._types import I64, I64_1D, I64_1D_OUT, I64_2D, I64_2D_OUT, U8_1D
+from ._types import I64, I64_1D, I64_2D, I64_2D_OUT, U8_1D
 from .sorting import mix_hash, table_bits
 
 _PART_SIZE = 2048  # about this many vertices per partition: its table stays in cache
@@ -142,21 +142,21 @@ def _number_groups(io_rep):
     return n_groups
 
 
-@kernel(I64_1D_OUT(I64_1D, I64))
-def _first_of_groups(group, n_groups):
-    """The first vertex of each of the ``n_groups`` groups.
+@kernel(types.void(I64_1D, types.int64[::1]), _nrt=False)
+def _first_of_groups(group, out_first):
+    """``out_first[g]``, the first vertex of group ``g``, for every group.
 
     Groups are numbered in order of first occurrence: group ``g`` first appears
     at the first ``i`` with ``group[i] == g``, after the first vertex of group
-    ``g - 1``, so one pass finds them all.
+    ``g - 1``, so one pass finds them all. ``out_first`` (one entry per group)
+    is given by the caller (numpy puts large arrays on huge pages, where numba's
+    own allocations take a page fault per 4 kB of fresh memory).
     """
-    first = np.empty(n_groups, dtype=np.int64)
     g = 0
     for i in range(group.shape[0]):
         if group[i] == g:
-            first[g] = i
+            out_first[g] = i
             g += 1
-    return first
 
 
 def _groups(vertices, run=run_serial):
@@ -189,7 +189,9 @@ def merge_vertices(vertices, run=run_serial):
     ``run`` too.
     """
     group, n_groups = _groups(vertices, run)
-    return group, _first_of_groups(group, n_groups)
+    first = np.empty(n_groups, dtype=np.int64)
+    _first_of_groups(group, first)
+    return group, first
 
 
 @kernel(I64(I64_2D, I64_1D, I64, I64, types.uint8[::1]))
@@ -290,7 +292,10 @@ def clean_mesh(vertices, faces, merge, run=run_serial):
         return vertices, faces, 0, 0, 0  # every group is its own vertex, all used
     # groups are in order of their first vertex: numbering the used ones in group
     # order keeps the original vertex order
-    first = _first_of_groups(group, n_groups) if merge else group
+    first = group
+    if merge:
+        first = np.empty(n_groups, dtype=np.int64)
+        _first_of_groups(group, first)
     new_id = np.empty(n_groups, dtype=np.int64)
     out_v, n_kept = _kept_vertices(vertices, first, used, new_id)
     out_f = np.empty((n_faces - n_deg, 3), dtype=np.int64)
