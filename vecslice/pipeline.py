@@ -77,38 +77,40 @@ def _with_rings(
     return LayerPaths._trusted(coords, kept_offsets, _kept_layer_offsets(paths, keep))
 
 
-def _kept_loops(
-    loops: LayerPaths, minimum_circumference: int
-) -> tuple[NDArray[np.bool_], LayerPaths]:
-    """The perimeter filter: ``(keep, loops[keep])`` (µm perimeters, Cura's)."""
+def _kept_loops(loops: LayerPaths, minimum_circumference: int) -> NDArray[np.bool_]:
+    """The perimeter filter: which loops are kept (µm perimeters, Cura's)."""
     perimeter = ring_perimeters(loops.coords, loops.ring_offsets)
-    keep = perimeter >= minimum_circumference
-    return keep, _keep_rings(loops, keep)
+    return perimeter >= minimum_circumference
 
 
 def _clean_closed(
     loops: LayerPaths,
     s: SliceSettings,
-    kept: tuple[NDArray[np.bool_], LayerPaths] | None = None,
+    keep: NDArray[np.bool_] | None = None,
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """The closed-loop part of :func:`clean_loops`, one result ring per input ring.
 
     Returns ``(coords, ring_offsets)`` with ring ``i`` the cleaned loop ``i`` of
     ``loops``, empty where it was dropped (short perimeter, simplified away,
     degenerate): the correspondence that :mod:`vecslice.metrics` measures.
-    ``kept`` is :func:`_kept_loops`'s result, when the caller has it already.
+    ``keep`` is :func:`_kept_loops`'s result, when the caller has it already.
+
+    Every loop is simplified (each on its own, so a kept loop's result does not
+    depend on the others) and the dropped ones are left out afterwards, from the
+    simplified rings: the raw loops, the largest arrays here, are never copied
+    (five Benchies: 43 MB, 22-32 ms, for the 30 of 7,470 loops under 1 mm).
     """
-    if kept is None:
-        kept = _kept_loops(loops, s.minimum_polygon_circumference)
-    keep, kept_loops = kept
-    kept = None
+    if keep is None:
+        keep = _kept_loops(loops, s.minimum_polygon_circumference)
     coords, offsets = simplify_rings(
-        kept_loops.coords, kept_loops.ring_offsets, True, s.max_resolution,
+        loops.coords, loops.ring_offsets, True, s.max_resolution,
         s.max_deviation, s.max_area_deviation,
     )
     coords, offsets = remove_degenerate_vertices(coords, offsets)
-    lens = np.zeros(loops.n_rings, dtype=np.int64)
-    lens[keep] = np.diff(offsets)
+    lens = np.diff(offsets)
+    if not keep.all():
+        coords = take_rings(coords, offsets, keep)[0]
+        lens[~keep] = 0
     full = np.zeros(loops.n_rings + 1, dtype=np.int64)
     np.cumsum(lens, out=full[1:])
     return coords, full

@@ -242,7 +242,7 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
                                  None, shared, speed=speed,
                                  controller_ms=controller_ms))
         return out
-    kept: dict[int, Any] = {}  # perimeter filters, by minimum circumference
+    kept: dict[int, Any] = {}  # perimeter filters (masks), by minimum circumference
     kept_lock = threading.Lock()
     # a ring that comes out of simplification as in an earlier combination
     # takes that combination's errors (the same pair: the same numbers)

@@ -233,3 +233,47 @@ def test_clean_loops_checks_its_arguments():
         vs.clean_loops(raw, {"max_deviation": 25})
     with pytest.raises(vs.InputTypeError, match="`loops` must be a vecslice"):
         vs.clean_loops(raw.paths(), vs.SliceSettings())  # used to be AttributeError
+
+
+def _filter_then_simplify(loops, s):
+    """_clean_closed as it was: the short loops taken out first, then simplified."""
+    from vecslice._kernels.rings import take_rings
+    from vecslice._kernels.simplify import remove_degenerate_vertices, ring_perimeters
+    from vecslice.simplify import simplify_rings
+
+    keep = ring_perimeters(loops.coords, loops.ring_offsets) >= (
+        s.minimum_polygon_circumference)
+    kc, ko = take_rings(loops.coords, loops.ring_offsets, keep)
+    c, o = simplify_rings(kc, ko, True, s.max_resolution, s.max_deviation,
+                          s.max_area_deviation)
+    c, o = remove_degenerate_vertices(c, o)
+    lens = np.zeros(loops.n_rings, dtype=np.int64)
+    lens[keep] = np.diff(o)
+    return c, np.concatenate([[0], np.cumsum(lens)])
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_clean_closed_drops_short_loops_after_simplifying_as_before(seed):
+    # every loop is simplified on its own, so simplifying all of them and leaving
+    # the short ones out afterwards gives what filtering first gave
+    from vecslice.pipeline import _clean_closed
+
+    rng = np.random.default_rng(seed)
+    rings, layers = [], [0]
+    for _ in range(int(rng.integers(1, 6))):  # layers
+        for _ in range(int(rng.integers(0, 8))):  # loops of the layer
+            n = int(rng.integers(3, 60))
+            radius = float(rng.choice([60.0, 150.0, 2000.0]))  # some under 1 mm
+            t = np.sort(rng.uniform(0, 2 * np.pi, n))
+            r = radius + rng.normal(0, radius / 20, n)
+            rings.append(np.stack([r * np.cos(t), r * np.sin(t)], axis=1).round())
+        layers.append(len(rings))
+    offsets = np.concatenate([[0], np.cumsum([len(r) for r in rings])])
+    coords = (np.concatenate(rings) if rings else np.zeros((0, 2))).astype(np.int64)
+    loops = vs.LayerPaths(coords, offsets, layers)
+    for s in (vs.SliceSettings(), vs.SliceSettings(minimum_polygon_circumference=0),
+              vs.SliceSettings(minimum_polygon_circumference=50_000)):
+        got_c, got_o = _clean_closed(loops, s)
+        ref_c, ref_o = _filter_then_simplify(loops, s)
+        assert got_o.tolist() == ref_o.tolist()
+        assert got_c.tolist() == ref_c.tolist()
