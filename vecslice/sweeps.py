@@ -147,7 +147,7 @@ def _model(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
 
 
 def _variant(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
-             settings: SliceSettings, kept: Any = None,
+             settings: SliceSettings,
              raw_area_um2: Any = None) -> tuple[Any, Any]:
     """:func:`vecslice.slice_mesh`'s stages after the raw contours, and the errors.
 
@@ -158,7 +158,7 @@ def _variant(raw: Any, stitched: Any, schedule: tuple[Any, Any, Any],
     """
     from vecslice.pipeline import _clean_closed
 
-    cleaned = _clean_closed(raw, settings, kept)
+    cleaned = _clean_closed(raw, settings)
     with ThreadPoolExecutor(1, thread_name_prefix="vecslice-metrics") as pool:
         errors = pool.submit(_error_cache(raw, raw_area_um2).errors, *cleaned)
         model = _model(raw, stitched, schedule, settings, cleaned)
@@ -242,8 +242,9 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
                                  None, shared, speed=speed,
                                  controller_ms=controller_ms))
         return out
-    kept: dict[int, Any] = {}  # perimeter filters (masks), by minimum circumference
-    kept_lock = threading.Lock()
+    # which loops the perimeter filter keeps, by minimum circumference
+    keep_of: dict[int, np.ndarray] = {}
+    keep_lock = threading.Lock()
     # a ring that comes out of simplification as in an earlier combination
     # takes that combination's errors (the same pair: the same numbers)
     cache = _error_cache(raw)
@@ -253,10 +254,10 @@ def _rows(prep: _Prepared, mesh_index: int, name: str,
             raise _Stopped
         t = time.perf_counter()
         c = s.minimum_polygon_circumference
-        with kept_lock:
-            if c not in kept:
-                kept[c] = _kept_loops(raw, c)
-        return _clean_closed(raw, s, kept[c]), time.perf_counter() - t
+        with keep_lock:
+            if c not in keep_of:
+                keep_of[c] = _kept_loops(raw, c)
+        return _clean_closed(raw, s, keep_of[c]), time.perf_counter() - t
 
     rows: list[dict[str, Any]] = []
     last = None  # the previous combination, its row made once this one's parts are
