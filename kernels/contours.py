@@ -107,6 +107,8 @@ _U8_W = types.uint8[::1]
 _I32_W = types.int32[::1]
 _I64_W = types.int64[::1]
 _I32_1D = types.Array(types.int32, 1, "C", readonly=True)
+_U64_R = types.Array(types.uint64, 1, "C", readonly=True)
+_ALL_VISITED = np.uint64(0x0101010101010101)  # eight visited marks read as one word
 
 
 @kernel(I64(I64_1D, I64_1D, I64_1D, I64))
@@ -446,12 +448,12 @@ def _trace_open(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
 @kernel(
     types.void(_I64_FLAT, _I32_1D, _I32_1D, I64_1D, I64_1D, I64_1D, _I32_1D, I64_1D,
                _I32_2D, I64_1D, I64, I64, I64_1D, I64_1D, I64_1D, _U8_W,
-               _I64_W, _U8_W, _I64_W, _U8_W),
+               _I64_W, _U8_W, _I64_W, _U8_W, _U64_R),
 )
 def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
                   face_offsets, blocks, layer_start, k0, k1, in_seg, in_pair,
                   out_face, out_visited, out_coords, out_ring_start, out_rings_of,
-                  out_broken):
+                  out_broken, visited_words):
     """Trace the closed loops of planes ``k0:k1`` (one chunk; chunks may run at once).
 
     Faces are scanned in order (skipping the blocks of faces that do not meet
@@ -459,6 +461,14 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
     segment not yet visited, writing its points at its plane's cursor (which
     starts at ``layer_start[out_layer[k]]``) and flagging its first point in
     ``out_ring_start``. A chunk writes only its planes' segments and vertices.
+
+    A block whose faces cross only planes of the chunk has its visited marks in
+    one run; when all of them are set (as for most blocks: the loops through
+    its faces started earlier) the block is passed over without visiting its
+    faces one by one. ``visited_words`` is ``out_visited`` read as uint64 (its
+    length a multiple of 8), so the run is read 8 marks at a time. (The scan
+    alone took 12.9 ms of a serial trace of five Benchies face by face, 5.3 ms
+    so.)
 
     ``vertices`` (x, y, z of vertex ``v`` at ``3 * v``), ``faces`` (int32, see
     :func:`narrow_faces`; face ``f`` at ``3 * f``) and ``out_coords`` (x, y of
@@ -480,7 +490,22 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
     for blk in range(blocks.shape[0]):
         if blocks[blk, 0] >= k1 or blocks[blk, 1] <= k0:
             continue  # no face of this block meets the chunk's planes
-        for f0 in range(BLOCK * blk, min(BLOCK * (blk + 1), n_faces)):
+        fb = min(BLOCK * (blk + 1), n_faces)
+        if blocks[blk, 0] >= k0 and blocks[blk, 1] <= k1:
+            # every segment of the block is the chunk's, and they are one run
+            # of the marks: when all are visited (most blocks, by loops that
+            # started before) the block holds no start
+            s = face_offsets[BLOCK * blk]
+            s_end = face_offsets[fb]
+            while s < s_end and s & 7 and out_visited[s]:
+                s += 1
+            while s + 8 <= s_end and visited_words[s >> 3] == _ALL_VISITED:
+                s += 8
+            while s < s_end and out_visited[s]:
+                s += 1
+            if s == s_end:
+                continue
+        for f0 in range(BLOCK * blk, fb):
             lo0 = np.int64(face_lo[f0])
             hi0 = lo0 + face_offsets[f0 + 1] - face_offsets[f0]
             for k in range(max(lo0, k0), min(hi0, k1)):
@@ -590,7 +615,7 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
         faces32, twin, vert_layer, n_planes, n_chunks, run, closed)
     flat_vertices = np.ascontiguousarray(vertices).reshape(-1)  # see _point
     n_seg = int(face_offsets[-1])
-    visited = np.zeros(n_seg, dtype=np.uint8)
+    visited = np.zeros(n_seg + (-n_seg) % 8, dtype=np.uint8)  # whole words
     if n_in + n_out == 0:  # a closed mesh: the open-end kernels are not compiled
         in_seg = in_pair = out_face = np.empty(0, dtype=np.int64)
         open_coords = np.empty((0, 2), dtype=np.int64)
@@ -633,7 +658,7 @@ def trace_contours(vertices, faces, twin, vert_layer, z, out_layer, n_chunks,
         _trace_closed(flat_vertices, flat_faces, twin, vert_layer, z, out_layer,
                       face_lo, face_offsets, blocks, layer_start, k0, k1, in_seg,
                       in_pair, out_face, visited, flat_coords, ring_start, rings_of,
-                      broken)
+                      broken, visited.view(np.uint64))
 
     run(closed, bounds)
     if broken.any():

@@ -97,6 +97,36 @@ def test_trace_contours_equals_the_chained_kernels_on_real_meshes(meshes_dir, na
         assert np.array_equal(a, b)
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_trace_contours_finds_starts_anywhere_in_a_block_of_marks(seed):
+    # the trace skips a block of faces whose visited marks (one run of bytes when
+    # the block lies within the chunk's planes; read 8 at a time) are all set.
+    # Shuffled faces of spheres and cylinders put loop starts at every place of
+    # such runs (before, on and after whole words); one chunk makes every block
+    # lie within it, more chunks leave blocks across the chunks' bounds
+    import trimesh
+
+    rng = np.random.default_rng(seed)
+    parts = [trimesh.creation.icosphere(subdivisions=3, radius=8.0),
+             trimesh.creation.cylinder(radius=5.0, height=14.0, sections=37),
+             trimesh.creation.icosphere(subdivisions=2, radius=3.0)]
+    v, f = [], []
+    for i, m in enumerate(parts):
+        f.append(np.asarray(m.faces) + sum(len(x) for x in v))
+        shift = np.array([20.0 * i, 0.0, 3.0 * i])
+        v.append(np.rint((m.vertices + shift) * 1000))
+    v = np.concatenate(v).astype(np.int64)
+    f = np.concatenate(f).astype(np.int64)[rng.permutation(sum(len(x) for x in f))]
+    z = np.unique(rng.integers(v[:, 2].min() - 5, v[:, 2].max() + 5, 90))
+    out_layer = rng.permutation(len(z)).astype(np.int64)
+    ref = chained(v, f, z, out_layer)
+    assert len(ref[1]) > 100  # loops
+    for n_chunks, run in ((1, "serial"), (3, "reversed"), (8, "threads")):
+        got = traced(v, f, z, out_layer, n_chunks, run)
+        for a, b in zip(got, ref, strict=True):
+            assert np.array_equal(a, b)
+
+
 @given(st.lists(st.integers(-(2**30) + 1, 2**30 - 1), min_size=1, max_size=50),
        st.lists(st.integers(-(2**30) + 1, 2**30 - 1), min_size=0, max_size=12))
 def test_vertex_layers_is_searchsorted_left(vz, planes):
