@@ -490,12 +490,13 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
     for blk in range(blocks.shape[0]):
         if blocks[blk, 0] >= k1 or blocks[blk, 1] <= k0:
             continue  # no face of this block meets the chunk's planes
-        fb = min(BLOCK * (blk + 1), n_faces)
+        fa = BLOCK * blk
+        fb = min(fa + BLOCK, n_faces)
         if blocks[blk, 0] >= k0 and blocks[blk, 1] <= k1:
             # every segment of the block is the chunk's, and they are one run
             # of the marks: when all are visited (most blocks, by loops that
             # started before) the block holds no start
-            s = face_offsets[BLOCK * blk]
+            s = face_offsets[fa]
             s_end = face_offsets[fb]
             while s < s_end and s & 7 and out_visited[s]:
                 s += 1
@@ -505,7 +506,9 @@ def _trace_closed(vertices, faces, twin, vert_layer, z, out_layer, face_lo,
                 s += 1
             if s == s_end:
                 continue
-        for f0 in range(BLOCK * blk, fb):
+            while face_offsets[fa + 1] <= s:  # the faces before s hold no start
+                fa += 1
+        for f0 in range(fa, fb):
             lo0 = np.int64(face_lo[f0])
             hi0 = lo0 + face_offsets[f0 + 1] - face_offsets[f0]
             for k in range(max(lo0, k0), min(hi0, k1)):
