@@ -40,3 +40,19 @@ def test_report_quick_prints_the_readme_table_format():
     assert "with `python benchmarks/report.py --quick` (1 interleaved repeat;" in notes
     assert "scaling row" not in notes and "trimesh row" not in notes
     assert "Workload: one 3DBenchy," in notes and "Versions: vecslice " in notes
+
+
+def test_scaling_note_gives_each_size_median_user_and_system_time():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "report", Path(__file__).with_name("report.py"))
+    report = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(report)
+    split = {2: [(0.11, 0.0004), (0.12, 0.0), (0.10, 0.002)],
+             4: [(0.22, 0.016), (0.23, 0.012), (0.25, 0.020)],
+             8: [(0.45, 0.052), (0.44, 0.061), (0.47, 0.049)]}
+    assert report.scaling_note(split) == (
+        "Scaling row, CPU time per call (medians) at 2, 4 and 8 copies: user "
+        "0.11, 0.23, 0.45 s, system 0.4, 16, 52 ms (mostly the kernel zeroing "
+        "memory new to the process).")

@@ -31,6 +31,7 @@ import argparse
 import datetime
 import os
 import platform
+import resource
 import statistics
 import subprocess
 import sys
@@ -140,24 +141,48 @@ SCALING_ROUNDS = 3  # rounds of the three sizes per repeat of the scaling row
 SLICE_ROUNDS = 3  # first/second slice pairs per repeat of the second-slice row
 
 
-def scaling_repeat(timer: Timer, S: dict[str, Series], size_arrays: dict) -> None:
+def scaling_repeat(timer: Timer, S: dict[str, Series], size_arrays: dict,
+                   split: dict[int, list[tuple[float, float]]]) -> None:
     """One repeat of the scaling row: each size's median over interleaved rounds.
 
     A run of 2 copies takes a twentieth of a second, so one call per size and
     repeat leaves the step ratios at the mercy of a moment's memory traffic on
     the machine; ``SCALING_ROUNDS`` rounds of (2, 4, 8 copies), each size's median
-    taken, give the repeat's sample (the same for every size).
+    taken, give the repeat's sample (the same for every size). Every call's user
+    and system CPU seconds go to ``split[copies]`` (see :func:`scaling_note`).
     """
     walls: dict[int, list[float]] = {c: [] for c in size_arrays}
     cpus: dict[int, list[float]] = {c: [] for c in size_arrays}
     for _ in range(SCALING_ROUNDS):
         for c, (v, faces, zc) in size_arrays.items():
+            r0 = resource.getrusage(resource.RUSAGE_SELF)
             _, wall, cpu = timer(vecslice_contours, v, faces, zc)
+            r1 = resource.getrusage(resource.RUSAGE_SELF)
             walls[c].append(wall)
             cpus[c].append(cpu)
+            split[c].append((r1.ru_utime - r0.ru_utime, r1.ru_stime - r0.ru_stime))
     for c in size_arrays:
         S[f"s{c}"].record(timer, statistics.median(walls[c]),
                           statistics.median(cpus[c]))
+
+
+def scaling_note(split: dict[int, list[tuple[float, float]]]) -> str:
+    """The scaling row's CPU time per call split into user and system time.
+
+    Medians over all calls of each size. The system time is mostly the kernel
+    handing the process memory it has not used before (zeroed pages: most of the
+    kernel's samples in ``perf`` are ``clear_page``), which grows faster than the
+    work once arrays pass glibc's 32 MiB mmap threshold; it shows a reader how
+    much of a scaling step is the memory's.
+    """
+    sizes = sorted(split)
+    user = ", ".join(f"{statistics.median(u for u, _ in split[c]):.3g}" for c in sizes)
+    system = ", ".join(f"{1e3 * statistics.median(s for _, s in split[c]):.3g}"
+                       for c in sizes)
+    names = ", ".join(str(c) for c in sizes[:-1]) + f" and {sizes[-1]}"
+    return (f"Scaling row, CPU time per call (medians) at {names} copies: user "
+            f"{user} s, system {system} ms (mostly the kernel zeroing memory new "
+            "to the process).")
 
 
 def ratio(a: Series, b: Series) -> tuple[float, float, float]:
@@ -289,6 +314,7 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         "vs", "mf", "ml", "vs1", "tm", "full", "mf_full", "first", "second",
         "simp_c", "clip_c", "simp_b", "clip_b", "s2", "s4", "s8", "floor")}
     seconds: dict[str, list[float]] = {"first": [], "second": []}
+    split: dict[int, list[tuple[float, float]]] = {c: [] for c in size_arrays}
     for rep in range(args.repeat):
         print(f"repeat {rep + 1}/{args.repeat} (load {_load()})", file=sys.stderr)
         S["vs"].add(timer, vecslice_contours, v_um, f, z)
@@ -304,7 +330,7 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         S["clip_c"].add(timer, clipper2.simplify_paths, circle_rings, eps, True)
         S["simp_b"].add(timer, vecslice_simplify, *raw_loops)
         S["clip_b"].add(timer, clipper2.simplify_paths, raw_rings, eps, True)
-        scaling_repeat(timer, S, size_arrays)
+        scaling_repeat(timer, S, size_arrays, split)
         if not args.no_trimesh and rep < args.trimesh_repeat:
             S["vs1"].add(timer, vecslice_contours, v1_um, f1, z1)
             S["tm"].add(timer, trimesh_build_sections, v1_64, f1_64, z1 / 1000.0)
@@ -394,6 +420,7 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         f"numba {numba.get_num_threads()} threads ({numba.threading_layer()} layer).",
         f"Worker threads each library started (besides the calling one): {started}; "
         f"CPU time / wall time while timed: {par}.",
+        *([scaling_note(split)] if size_arrays else []),
         "Outputs checked before timing (closed contours and net area per layer "
         "against vecslice's raw loops): " + "; ".join(agreement) + ".",
         "Versions: " + ", ".join(f"{d} {_version(d)}" for d in (
