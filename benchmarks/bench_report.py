@@ -42,17 +42,46 @@ def test_report_quick_prints_the_readme_table_format():
     assert "Workload: one 3DBenchy," in notes and "Versions: vecslice " in notes
 
 
-def test_scaling_note_gives_each_size_median_user_and_system_time():
+
+def _report():
+    """report.py as a module (it is a script, not a package member)."""
     import importlib.util
 
     spec = importlib.util.spec_from_file_location(
         "report", Path(__file__).with_name("report.py"))
     report = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(report)
+    return report
+
+
+def test_scaling_note_gives_each_size_median_user_and_system_time():
     split = {2: [(0.11, 0.0004), (0.12, 0.0), (0.10, 0.002)],
              4: [(0.22, 0.016), (0.23, 0.012), (0.25, 0.020)],
              8: [(0.45, 0.052), (0.44, 0.061), (0.47, 0.049)]}
-    assert report.scaling_note(split) == (
+    assert _report().scaling_note(split) == (
         "Scaling row, CPU time per call (medians) at 2, 4 and 8 copies: user "
         "0.11, 0.23, 0.45 s, system 0.4, 16, 52 ms (mostly the kernel zeroing "
         "memory new to the process).")
+
+
+def test_fresh_note_gives_medians_and_each_step_with_the_rounds_range():
+    fresh = {2: [(0.10, 0.01), (0.12, 0.02), (0.11, 0.03)],
+             4: [(0.20, 0.02), (0.26, 0.04), (0.21, 0.05)],
+             8: [(0.40, 0.05), (0.48, 0.07), (0.44, 0.09)]}
+    # steps of the medians 0.11 -> 0.21 -> 0.44; rounds' ratios 2, 2.17, 1.91
+    # and 2, 1.85, 2.10
+    assert _report().fresh_note(fresh) == (
+        "The same sizes sliced once each in a fresh process, where all memory is "
+        "new (medians of 3 rounds): 0.11 s → 0.21 s → 0.44 s, 1.91× (1.91–2.17) / "
+        "2.1× (1.85–2.1) per doubling; system 20, 40, 70 ms.")
+
+
+def test_fresh_call_times_one_slice_in_a_new_process():
+    import numpy as np
+
+    import vecslice as vs
+
+    box = vs.load_mesh(__import__("trimesh").creation.box((10, 10, 10)))
+    z = np.arange(-4000, 5000, 1000, dtype=np.int64)
+    wall, system = _report().fresh_call(box.vertices, box.faces, z)
+    assert 0 < wall < 60 and 0 <= system < 60

@@ -22,13 +22,17 @@ over ``SCALING_ROUNDS`` interleaved rounds, and one of the second-slice row the
 medians of ``SLICE_ROUNDS`` first and second slices, each pair on a new
 ``Mesh``). The table ends with the machine, its
 load while measuring, the thread pools each library started and the CPU time / wall
-time each used (its effective parallelism), and the library versions.
+time each used (its effective parallelism), and the library versions. Notes
+under the table split the scaling row's CPU time into user and system time, and
+give the same sizes sliced once each in a fresh process, where no call can reuse
+memory that an earlier one freed.
 """
 
 from __future__ import annotations
 
 import argparse
 import datetime
+import itertools
 import os
 import platform
 import resource
@@ -89,6 +93,25 @@ out = sum(x.nbytes for x in (loops.coords, loops.ring_offsets, loops.layer_offse
                              loops.open.coords, loops.open.ring_offsets,
                              loops.open.layer_offsets))
 print(peak - before, mesh.vertices.nbytes + mesh.faces.nbytes, out)
+"""
+
+_FRESH = """
+import resource
+import sys
+import time
+import numpy as np
+import vecslice as vs
+from vecslice._threads import run_chunks
+
+a = np.load(sys.argv[1])
+v, f, z = a["vertices"], a["faces"], a["z"]
+vs.slice_contours(vs.Mesh.from_arrays(v[:3], np.array([[0, 1, 2]])), z[:1])  # JIT
+run_chunks(lambda lo, hi: None, [0, 1, 2, 3, 4])  # the worker threads started
+r = resource.getrusage(resource.RUSAGE_SELF).ru_stime
+t = time.perf_counter()
+vs.slice_contours(vs.Mesh.from_arrays(v, f), z)
+wall = time.perf_counter() - t
+print(wall, resource.getrusage(resource.RUSAGE_SELF).ru_stime - r)
 """
 
 
@@ -334,6 +357,11 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         if not args.no_trimesh and rep < args.trimesh_repeat:
             S["vs1"].add(timer, vecslice_contours, v1_um, f1, z1)
             S["tm"].add(timer, trimesh_build_sections, v1_64, f1_64, z1 / 1000.0)
+    fresh: dict[int, list[tuple[float, float]]] = {c: [] for c in size_arrays}
+    for rep in range(args.repeat if size_arrays else 0):
+        print(f"fresh processes, round {rep + 1}/{args.repeat}", file=sys.stderr)
+        for c, arrays in size_arrays.items():
+            fresh[c].append(fresh_call(*arrays))
     S["first"].wall = seconds["first"]
     S["second"].wall = seconds["second"]
 
@@ -420,7 +448,7 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         f"numba {numba.get_num_threads()} threads ({numba.threading_layer()} layer).",
         f"Worker threads each library started (besides the calling one): {started}; "
         f"CPU time / wall time while timed: {par}.",
-        *([scaling_note(split)] if size_arrays else []),
+        *([scaling_note(split), fresh_note(fresh)] if size_arrays else []),
         "Outputs checked before timing (closed contours and net area per layer "
         "against vecslice's raw loops): " + "; ".join(agreement) + ".",
         "Versions: " + ", ".join(f"{d} {_version(d)}" for d in (
@@ -430,15 +458,46 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
     return rows, notes
 
 
-def peak_memory(v, f, z) -> tuple[int, int, int]:
-    """Peak RSS growth of slice_contours on a fresh Mesh, in a fresh process."""
+def _child(script: str, v, f, z) -> str:
+    """Stdout of ``script`` run in a fresh process on the arrays (an .npz path)."""
     with tempfile.TemporaryDirectory() as tmp:
         path = str(Path(tmp) / "mesh.npz")
         np.savez(path, vertices=v, faces=f, z=z)
         env = dict(os.environ, PYTHONPATH=str(HERE.parent))
-        out = subprocess.run([sys.executable, "-c", _PEAK, path], env=env,
-                             capture_output=True, text=True, check=True).stdout
-    grow, n_in, n_out = (int(x) for x in out.split())
+        return subprocess.run([sys.executable, "-c", script, path], env=env,
+                              capture_output=True, text=True, check=True).stdout
+
+
+def fresh_call(v, f, z) -> tuple[float, float]:
+    """Wall and system seconds of ``Mesh.from_arrays`` + ``slice_contours`` as
+    the first call of a fresh process (kernels loaded and worker threads started
+    before, with no memory of an earlier call of this size to reuse)."""
+    wall, system = (float(x) for x in _child(_FRESH, v, f, z).split())
+    return wall, system
+
+
+def fresh_note(fresh: dict[int, list[tuple[float, float]]]) -> str:
+    """The scaling row's sizes each sliced once per fresh process (rounds of
+    the sizes): median wall and system time, and each step's ratio of the
+    medians with the range of the rounds' ratios."""
+    sizes = sorted(fresh)
+    walls = {c: [w for w, _ in fresh[c]] for c in sizes}
+    times = " → ".join(f"{statistics.median(walls[c]):.3g} s" for c in sizes)
+    system = ", ".join(f"{1e3 * statistics.median(s for _, s in fresh[c]):.3g}"
+                       for c in sizes)
+    steps = []
+    for a, b in itertools.pairwise(sizes):
+        r = [y / x for x, y in zip(walls[a], walls[b])]
+        step = statistics.median(walls[b]) / statistics.median(walls[a])
+        steps.append(fmt_ratio((step, min(r), max(r))))
+    return (f"The same sizes sliced once each in a fresh process, where all memory is "
+            f"new (medians of {len(walls[sizes[0]])} rounds): {times}, "
+            f"{' / '.join(steps)} per doubling; system {system} ms.")
+
+
+def peak_memory(v, f, z) -> tuple[int, int, int]:
+    """Peak RSS growth of slice_contours on a fresh Mesh, in a fresh process."""
+    grow, n_in, n_out = (int(x) for x in _child(_PEAK, v, f, z).split())
     return grow, n_in, n_out
 
 
