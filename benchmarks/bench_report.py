@@ -42,7 +42,6 @@ def test_report_quick_prints_the_readme_table_format():
     assert "Workload: one 3DBenchy," in notes and "Versions: vecslice " in notes
 
 
-
 def _report():
     """report.py as a module (it is a script, not a package member)."""
     import importlib.util
@@ -76,12 +75,16 @@ def test_fresh_note_gives_medians_and_each_step_with_the_rounds_range():
         "2.1× (1.85–2.1) per doubling; system 20, 40, 70 ms.")
 
 
-def test_fresh_call_times_one_slice_in_a_new_process():
+def test_fresh_rounds_time_each_size_in_new_processes():
     import numpy as np
 
     import vecslice as vs
 
     box = vs.load_mesh(__import__("trimesh").creation.box((10, 10, 10)))
     z = np.arange(-4000, 5000, 1000, dtype=np.int64)
-    wall, system = _report().fresh_call(box.vertices, box.faces, z)
-    assert 0 < wall < 60 and 0 <= system < 60
+    sizes = {1: (box.vertices, box.faces, z), 2: (box.vertices, box.faces, z[::2])}
+    fresh = _report().fresh_rounds(sizes, 2)
+    assert sorted(fresh) == [1, 2]
+    for times in fresh.values():
+        assert len(times) == 2
+        assert all(0 < wall < 60 and 0 <= system < 60 for wall, system in times)

@@ -194,9 +194,11 @@ def scaling_note(split: dict[int, list[tuple[float, float]]]) -> str:
 
     Medians over all calls of each size. The system time is mostly the kernel
     handing the process memory it has not used before (zeroed pages: most of the
-    kernel's samples in ``perf`` are ``clear_page``), which grows faster than the
-    work once arrays pass glibc's 32 MiB mmap threshold; it shows a reader how
-    much of a scaling step is the memory's.
+    kernel's samples in ``perf`` are ``clear_page``), which can grow faster than
+    the work (arrays past glibc's 32 MiB mmap threshold are mapped afresh on every
+    call, and on a virtual machine fresh memory may cost more per MB the more of
+    it a call takes); it shows a reader how much of a scaling step is the
+    memory's.
     """
     sizes = sorted(split)
     user = ", ".join(f"{statistics.median(u for u, _ in split[c]):.3g}" for c in sizes)
@@ -357,11 +359,7 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
         if not args.no_trimesh and rep < args.trimesh_repeat:
             S["vs1"].add(timer, vecslice_contours, v1_um, f1, z1)
             S["tm"].add(timer, trimesh_build_sections, v1_64, f1_64, z1 / 1000.0)
-    fresh: dict[int, list[tuple[float, float]]] = {c: [] for c in size_arrays}
-    for rep in range(args.repeat if size_arrays else 0):
-        print(f"fresh processes, round {rep + 1}/{args.repeat}", file=sys.stderr)
-        for c, arrays in size_arrays.items():
-            fresh[c].append(fresh_call(*arrays))
+    fresh = fresh_rounds(size_arrays, args.repeat) if size_arrays else {}
     S["first"].wall = seconds["first"]
     S["second"].wall = seconds["second"]
 
@@ -458,22 +456,36 @@ def measure(args) -> tuple[list[tuple[str, str, str, str]], list[str]]:
     return rows, notes
 
 
-def _child(script: str, v, f, z) -> str:
-    """Stdout of ``script`` run in a fresh process on the arrays (an .npz path)."""
+def _npz(folder: str, name: str, v, f, z) -> str:
+    """The arrays saved to ``folder`` as ``name``.npz for a child process; its path."""
+    path = str(Path(folder) / f"{name}.npz")
+    np.savez(path, vertices=v, faces=f, z=z)
+    return path
+
+
+def _child(script: str, path: str) -> str:
+    """Stdout of ``script`` run in a fresh process on the arrays saved at ``path``."""
+    env = dict(os.environ, PYTHONPATH=str(HERE.parent))
+    return subprocess.run([sys.executable, "-c", script, path], env=env,
+                          capture_output=True, text=True, check=True).stdout
+
+
+def fresh_rounds(size_arrays: dict,
+                 rounds: int) -> dict[int, list[tuple[float, float]]]:
+    """Wall and system seconds of ``Mesh.from_arrays`` + ``slice_contours`` of
+    each size as the first call of a fresh process, in ``rounds`` rounds of the
+    sizes (kernels loaded and worker threads started before the call, and no
+    memory that an earlier call of the process freed to reuse)."""
+    fresh: dict[int, list[tuple[float, float]]] = {c: [] for c in size_arrays}
     with tempfile.TemporaryDirectory() as tmp:
-        path = str(Path(tmp) / "mesh.npz")
-        np.savez(path, vertices=v, faces=f, z=z)
-        env = dict(os.environ, PYTHONPATH=str(HERE.parent))
-        return subprocess.run([sys.executable, "-c", script, path], env=env,
-                              capture_output=True, text=True, check=True).stdout
-
-
-def fresh_call(v, f, z) -> tuple[float, float]:
-    """Wall and system seconds of ``Mesh.from_arrays`` + ``slice_contours`` as
-    the first call of a fresh process (kernels loaded and worker threads started
-    before, with no memory of an earlier call of this size to reuse)."""
-    wall, system = (float(x) for x in _child(_FRESH, v, f, z).split())
-    return wall, system
+        paths = {c: _npz(tmp, f"copies_{c}", *arrays)
+                 for c, arrays in size_arrays.items()}
+        for rep in range(rounds):
+            print(f"fresh processes, round {rep + 1}/{rounds}", file=sys.stderr)
+            for c, path in paths.items():
+                wall, system = (float(x) for x in _child(_FRESH, path).split())
+                fresh[c].append((wall, system))
+    return fresh
 
 
 def fresh_note(fresh: dict[int, list[tuple[float, float]]]) -> str:
@@ -497,7 +509,9 @@ def fresh_note(fresh: dict[int, list[tuple[float, float]]]) -> str:
 
 def peak_memory(v, f, z) -> tuple[int, int, int]:
     """Peak RSS growth of slice_contours on a fresh Mesh, in a fresh process."""
-    grow, n_in, n_out = (int(x) for x in _child(_PEAK, v, f, z).split())
+    with tempfile.TemporaryDirectory() as tmp:
+        out = _child(_PEAK, _npz(tmp, "mesh", v, f, z))
+    grow, n_in, n_out = (int(x) for x in out.split())
     return grow, n_in, n_out
 
 
