@@ -83,12 +83,16 @@ def inflate(fh: BinaryIO, info: zipfile.ZipInfo, *, max_ratio: float,
             consumed += len(piece)
         else:
             if not tail:
-                if dec.eof or not left:
+                if dec.eof:
                     break
-                tail = fh.read(min(_INPUT, left))
-                if not tail:  # the file ends inside the entry's data
-                    break
-                left -= len(tail)
+                if left:
+                    tail = fh.read(min(_INPUT, left))
+                    if not tail:  # the file ends inside the entry's data
+                        break
+                    left -= len(tail)
+                # else every compressed byte is in, but output that max_length
+                # held back (the rest of a match) may still be in zlib: asked with
+                # no input, it gives that, or nothing (and the loop ends below)
             before = len(tail)
             try:
                 piece = dec.decompress(tail, chunk - filled)
