@@ -189,6 +189,12 @@ def scaling_repeat(timer: Timer, S: dict[str, Series], size_arrays: dict,
                           statistics.median(cpus[c]))
 
 
+def _system_ms(times: dict[int, list[tuple[float, float]]]) -> str:
+    """Each size's median system time in ms, in order of size: "3, 22.2, 150"."""
+    return ", ".join(f"{1e3 * statistics.median(s for _, s in times[c]):.3g}"
+                     for c in sorted(times))
+
+
 def scaling_note(split: dict[int, list[tuple[float, float]]]) -> str:
     """The scaling row's CPU time per call split into user and system time.
 
@@ -202,8 +208,7 @@ def scaling_note(split: dict[int, list[tuple[float, float]]]) -> str:
     """
     sizes = sorted(split)
     user = ", ".join(f"{statistics.median(u for u, _ in split[c]):.3g}" for c in sizes)
-    system = ", ".join(f"{1e3 * statistics.median(s for _, s in split[c]):.3g}"
-                       for c in sizes)
+    system = _system_ms(split)
     names = ", ".join(str(c) for c in sizes[:-1]) + f" and {sizes[-1]}"
     return (f"Scaling row, CPU time per call (medians) at {names} copies: user "
             f"{user} s, system {system} ms (mostly the kernel zeroing memory new "
@@ -495,8 +500,7 @@ def fresh_note(fresh: dict[int, list[tuple[float, float]]]) -> str:
     sizes = sorted(fresh)
     walls = {c: [w for w, _ in fresh[c]] for c in sizes}
     times = " → ".join(f"{statistics.median(walls[c]):.3g} s" for c in sizes)
-    system = ", ".join(f"{1e3 * statistics.median(s for _, s in fresh[c]):.3g}"
-                       for c in sizes)
+    system = _system_ms(fresh)
     steps = []
     for a, b in itertools.pairwise(sizes):
         r = [y / x for x, y in zip(walls[a], walls[b])]
