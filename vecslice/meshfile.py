@@ -191,6 +191,7 @@ _STL_RECORD = np.dtype(
 _STL_VERTEX = re.compile(rb"vertex[ \t\r\n]+(\S+)[ \t\r\n]+(\S+)[ \t\r\n]+(\S+)")
 _STL_LOOP = re.compile(rb"outer[ \t]+loop")
 _TEXT = re.compile(rb"[^\t\n\r\x20-\x7e]")
+_BOM = b"\xef\xbb\xbf"  # UTF-8 byte order mark: Windows tools begin text with it
 
 
 def _utf16_hint(data: bytes) -> str:
@@ -387,7 +388,7 @@ def _read_obj(path: Path, size: int) -> Arrays:
     groups, materials) is ignored. Whole-file regular expressions and numpy
     parsing: no loop over lines in Python.
     """
-    data = path.read_bytes()
+    data = path.read_bytes().removeprefix(_BOM)  # it hid a first 'v' line
     if b"\r" in data:  # lines end at CR LF, CR (old Mac) or LF alike
         data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
     joins = np.empty(0, dtype=np.int64)

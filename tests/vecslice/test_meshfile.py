@@ -680,3 +680,17 @@ def test_binary_stl_count_that_does_not_match_the_size_is_named(tmp_path, n, cla
                   rf"{84 + 50 * claimed} bytes \(84 \+ 50 each\), but the file has "
                   rf"{len(data)} bytes$")
     assert "holds no triangles" not in str(err)
+
+
+BOM = b"\xef\xbb\xbf"  # UTF-8 byte order mark, as Windows tools write text
+
+
+def test_obj_with_a_utf8_byte_order_mark_keeps_its_first_vertex(tmp_path):
+    # audit s35 loaders: the BOM hid the first 'v' line, so every index pointed
+    # one vertex further and a file with a spare vertex loaded another mesh
+    text = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 7 7 7\nf 1 2 3\nf 1 2 4\n"
+    plain = vs.load_mesh(write(tmp_path, "a.obj", text), repair=False)
+    marked = vs.load_mesh(write(tmp_path, "b.obj", BOM + text), repair=False)
+    assert marked.vertices.tolist() == plain.vertices.tolist()
+    assert marked.faces.tolist() == plain.faces.tolist()
+    assert marked.load_info.vertices_in == 5
