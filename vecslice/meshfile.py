@@ -240,9 +240,10 @@ def _read_stl(path: Path, size: int) -> Arrays:
             return v, np.arange(3 * n, dtype=np.int64).reshape(-1, 3)
         fh.seek(0)
         data = fh.read()
-    if data.lstrip()[:5].lower() != b"solid":
+    text = data.removeprefix(_BOM)
+    if text.lstrip()[:5].lower() != b"solid":
         raise _no_stl(path, data)
-    return _read_stl_ascii(path, data)
+    return _read_stl_ascii(path, text)
 
 
 def _read_stl_ascii(path: Path, data: bytes) -> Arrays:
@@ -472,11 +473,11 @@ def _read_obj(path: Path, size: int) -> Arrays:
 
 
 def _read_off(path: Path, size: int) -> Arrays:
-    return read_off(path, path.read_bytes())
+    return read_off(path, path.read_bytes().removeprefix(_BOM))
 
 
 def _read_ply(path: Path, size: int) -> Arrays:
-    data = path.read_bytes()
+    data = path.read_bytes().removeprefix(_BOM)
     header = _ply_parse(path, data)
     if header.binary:
         return read_ply_binary(path, data, header)

@@ -694,3 +694,19 @@ def test_obj_with_a_utf8_byte_order_mark_keeps_its_first_vertex(tmp_path):
     assert marked.vertices.tolist() == plain.vertices.tolist()
     assert marked.faces.tolist() == plain.faces.tolist()
     assert marked.load_info.vertices_in == 5
+
+
+@pytest.mark.parametrize(("name", "text"), [
+    ("t.stl", TRI_STL % (b"x", b"x")),
+    ("t.ply", b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+              b"property float y\nproperty float z\nelement face 1\n"
+              b"property list uchar int vertex_indices\nend_header\n"
+              b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),
+    ("t.off", b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),
+])
+def test_text_files_with_a_utf8_byte_order_mark_load(tmp_path, name, text):
+    # audit s35 loaders: refused, an ASCII STL as a binary one announcing
+    # 170,926,129 triangles (the BOM was taken for header bytes)
+    m = vs.load_mesh(write(tmp_path, name, BOM + text), repair=False)
+    assert m.vertices.tolist() == [[0, 0, 0], [1000, 0, 0], [0, 1000, 0]]
+    assert m.faces.tolist() == [[0, 1, 2]]
