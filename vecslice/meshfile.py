@@ -247,8 +247,11 @@ def _read_stl(path: Path, size: int) -> Arrays:
 
 
 def _read_stl_ascii(path: Path, data: bytes) -> Arrays:
+    text = data
+    if b"\r" in text:  # lines end at CR LF, CR (old Mac) or LF alike
+        text = text.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
     # keywords in any case (some CAD writes SOLID ... ENDSOLID); skip the name
-    body = data[data.find(b"\n") + 1:].lower() if b"\n" in data else b""
+    body = text[text.find(b"\n") + 1:].lower() if b"\n" in text else b""
     # text between vertices, x, y, z, text between vertices, ..., text after them
     parts = _STL_VERTEX.split(body)
     gaps = parts[0::4]

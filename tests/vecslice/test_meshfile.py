@@ -710,3 +710,18 @@ def test_text_files_with_a_utf8_byte_order_mark_load(tmp_path, name, text):
     m = vs.load_mesh(write(tmp_path, name, BOM + text), repair=False)
     assert m.vertices.tolist() == [[0, 0, 0], [1000, 0, 0], [0, 1000, 0]]
     assert m.faces.tolist() == [[0, 1, 2]]
+
+
+def test_ascii_stl_with_old_mac_line_ends_loads(tmp_path):
+    # audit s35 loaders: with CR-only line ends the name line ran to the end of
+    # the file, and it was refused as "without a complete 'solid ... endsolid'
+    # block: truncated?" (compat='cura' read it, as OBJ files read)
+    text = (TRI_STL % (b"x", b"x")).replace(b"\n", b"\r")
+    m = vs.load_mesh(write(tmp_path, "mac.stl", text), repair=False)
+    assert m.vertices.tolist() == [[0, 0, 0], [1000, 0, 0], [0, 1000, 0]]
+    bad = text.replace(b"vertex 0 1 0", b"vertex 0 1 q")
+    refused(write(tmp_path, "bad.stl", bad), r"bad\.stl' is corrupt: vertex 3 has "
+            r"'q' where a number should be")
+    quad = text.replace(b"endloop", b"vertex 1 1 0\rendloop")
+    refused(write(tmp_path, "quad.stl", quad), r"facets must have 3 vertices each; "
+            r"got 4 vertices in 1 facets")
