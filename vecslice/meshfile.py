@@ -190,6 +190,7 @@ _STL_RECORD = np.dtype(
 )
 _STL_VERTEX = re.compile(rb"vertex[ \t\r\n]+(\S+)[ \t\r\n]+(\S+)[ \t\r\n]+(\S+)")
 _STL_LOOP = re.compile(rb"outer[ \t]+loop")
+_STL_SOLID = re.compile(rb"^[ \t]*solid(?![^ \t\n])", re.M)
 _TEXT = re.compile(rb"[^\t\n\r\x20-\x7e]")
 _BOM = b"\xef\xbb\xbf"  # UTF-8 byte order mark: Windows tools begin text with it
 
@@ -258,6 +259,12 @@ def _read_stl_ascii(path: Path, data: bytes) -> Arrays:
     del parts[0::4]  # the numbers are left
     if not parts or body.rfind(b"endsolid") < body.rfind(b"vertex"):
         raise _no_stl(path, data)
+    # a solid begun after the last endsolid: cut before its first vertex
+    cut = _STL_SOLID.search(body, body.rfind(b"endsolid"))
+    if cut is not None:
+        raise MeshFileError(
+            f"'{path}' is truncated or corrupt: its ASCII STL solid on line "
+            f"{_line_of(body, cut.start()) + 1} has no 'endsolid'")
     per_facet = _stl_facet_sizes(gaps)
     n_loops = per_facet.shape[0] - 1
     if len(gaps) - 1 != 3 * n_loops:
