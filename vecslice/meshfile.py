@@ -190,7 +190,7 @@ _STL_RECORD = np.dtype(
 )
 _STL_VERTEX = re.compile(rb"vertex[ \t\r\n]+(\S+)[ \t\r\n]+(\S+)[ \t\r\n]+(\S+)")
 _STL_LOOP = re.compile(rb"outer[ \t]+loop")
-_STL_SOLID = re.compile(rb"^[ \t]*solid(?![^ \t\n])", re.M)
+_STL_SOLID = re.compile(rb"^[ \t]*solid(?![^ \t\r\n])", re.M)
 _TEXT = re.compile(rb"[^\t\n\r\x20-\x7e]")
 _BOM = b"\xef\xbb\xbf"  # UTF-8 byte order mark: Windows tools begin text with it
 
@@ -249,8 +249,8 @@ def _read_stl(path: Path, size: int) -> Arrays:
 
 def _read_stl_ascii(path: Path, data: bytes) -> Arrays:
     text = data
-    if b"\r" in text:  # lines end at CR LF, CR (old Mac) or LF alike
-        text = text.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    if b"\n" not in text:  # old Mac line ends (CR only); CR LF reads as LF does
+        text = text.replace(b"\r", b"\n")
     # keywords in any case (some CAD writes SOLID ... ENDSOLID); skip the name
     body = text[text.find(b"\n") + 1:].lower() if b"\n" in text else b""
     # text between vertices, x, y, z, text between vertices, ..., text after them

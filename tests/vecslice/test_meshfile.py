@@ -727,12 +727,16 @@ def test_ascii_stl_with_old_mac_line_ends_loads(tmp_path):
             r"got 4 vertices in 1 facets")
 
 
-@pytest.mark.parametrize("cut", [b"", b"facet normal 0 0 1\n", b"facet normal 0 0 1\n"
-                                 b"outer loop\nvert"])
-def test_ascii_stl_cut_in_a_later_solid_before_its_first_vertex(tmp_path, cut):
+@pytest.mark.parametrize("end", [b"\n", b"\r\n"])
+@pytest.mark.parametrize(("solid", "cut"), [
+    (b"solid b\n", b""), (b"solid\n", b""), (b"solid b\n", b"facet normal 0 0 1\n"),
+    (b"solid b\n", b"facet normal 0 0 1\nouter loop\nvert")])
+def test_ascii_stl_cut_in_a_later_solid_before_its_first_vertex(tmp_path, solid, cut,
+                                                                  end):
     # audit s35 loaders: the cut solid was dropped and the file loaded with the
-    # first solid only (its endsolid stood after the last vertex)
-    text = TRI_STL % (b"a", b"a") + b"solid b\n" + cut
+    # first solid only (its endsolid stood after the last vertex); a nameless
+    # solid and Windows line ends are found alike
+    text = (TRI_STL % (b"a", b"a") + solid + cut).replace(b"\n", end)
     refused(write(tmp_path, "cut.stl", text), r"cut\.stl' is truncated or corrupt: "
             r"its ASCII STL solid on line 10 has no 'endsolid'")
     whole = TRI_STL % (b"a", b"a") + (TRI_STL % (b"b", b"b")).replace(b"0 1 0",
