@@ -466,7 +466,9 @@ def resolution_stats(
     n = int(loops.coords.shape[0])
     mean_edge = perim / n if n else 0.0
     xor = layer_xor_areas(loops, ref)
-    total = float(np.abs(loops.layer_area2()).sum() + np.abs(ref.layer_area2()).sum())
+    # summed in float64: the int64 layer values can add up beyond int64
+    total = float(sum(np.abs(x.layer_area2().astype(np.float64)).sum()
+                      for x in (loops, ref)))
     err = float(xor.sum())
     return ResolutionStats(
         vertices=n,

@@ -52,6 +52,24 @@ def test_bad_arguments(cylinder):
         model_loops("model")
 
 
+def test_relative_error_of_layers_near_the_coordinate_limit():
+    """Audit s35 api D1: the area total was summed in int64 and wrapped for
+    layers near the coordinate limit (three 2 km squares), giving a negative
+    relative error (-9.0 instead of 0.6)."""
+    s = 2**30 - 1
+    big = [[-s, -s], [s, -s], [s, s], [-s, s]]
+    small = [[x // 2, y // 2] for x, y in big]
+    n = 3
+    model = vs.SlicedModel(np.arange(n) * 100 + 50, np.arange(n) * 100 + 100,
+                           [100] * n, np.arange(n + 1), np.arange(n + 1),
+                           np.arange(n + 1) * 4, big * n)
+    ref = vs.LayerPaths(small * n, np.arange(n + 1) * 4, np.arange(n + 1))
+    a, b = (2 * s) ** 2, (2 * (s // 2) + 1) ** 2  # exact areas, µm² per layer
+    stats = resolution_stats(model, ref)
+    assert stats.error_um2 == pytest.approx(n * (a - b), rel=1e-12)
+    assert stats.relative_error == pytest.approx((a - b) / (a + b), rel=1e-12)
+
+
 # --- exact metrics: known answers ---------------------------------------------
 
 from hypothesis import given, settings  # noqa: E402
