@@ -91,6 +91,13 @@ def _as_float(mm: ArrayLike, name: str) -> NDArray[np.float64]:
             f"{want}; got {type(mm).__name__} that numpy cannot convert ({exc})"
         ) from None
     if a.dtype.kind == "O":
+        # numpy would read None as NaN and "2.5" as 2.5: refuse them by type
+        for i, v in enumerate(a.ravel().tolist()):
+            if v is None or isinstance(v, (str, bytes, bool, np.bool_)):
+                raise InputTypeError(
+                    f"{want}; got {type(mm).__name__} with {type(v).__name__} "
+                    f"{v!r} at flat index {i}"
+                )
         try:
             return a.astype(np.float64)
         except OverflowError:  # a Python int beyond float range (10**400)

@@ -38,6 +38,26 @@ def test_non_numbers_are_type_errors(mm, fragment):
     assert isinstance(info.value, TypeError)
 
 
+@pytest.mark.parametrize(
+    ("mm", "fragment"),
+    [
+        ([1.5, None], r"got list with NoneType None at flat index 1"),
+        (np.array([None], dtype=object), r"got ndarray with NoneType None at flat "
+                                         r"index 0"),
+        (np.array([1.5, "2.5"], dtype=object), r"got ndarray with str '2\.5' at "
+                                               r"flat index 1"),
+        (np.array([[1.5], [True]], dtype=object), r"with bool True at flat index 1"),
+    ],
+)
+def test_non_numbers_among_objects_are_type_errors(mm, fragment):
+    """Audit s35 api D2: None in a list became NaN (an InputValueError saying
+    "must be finite; got nan"), and a string or a bool in an object array was
+    converted silently ("2.5" became 2500 µm), though to_microns refuses both."""
+    with pytest.raises(InputTypeError, match=fragment) as info:
+        vs.to_microns(mm)
+    assert isinstance(info.value, TypeError)
+
+
 def test_bad_values_name_the_argument():
     with pytest.raises(InputValueError, match="`scale` must be finite; got nan"):
         vs.to_microns([1.0, float("nan")], name="scale")
