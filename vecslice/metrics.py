@@ -462,6 +462,11 @@ def resolution_stats(
             "`reference` must be a LayerPaths or SlicedModel; "
             f"got {type(reference).__name__}"
         )
+    if ref.n_layers != loops.n_layers:
+        raise InputValueError(
+            f"`reference` must have as many layers as `model` ({loops.n_layers}); "
+            f"got {ref.n_layers}"
+        )
     perim = int(ring_perimeters(loops.coords, loops.ring_offsets).sum())
     n = int(loops.coords.shape[0])
     mean_edge = perim / n if n else 0.0

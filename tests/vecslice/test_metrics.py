@@ -70,6 +70,20 @@ def test_relative_error_of_layers_near_the_coordinate_limit():
     assert stats.relative_error == pytest.approx((a - b) / (a + b), rel=1e-12)
 
 
+def test_reference_with_other_layers_is_named_in_the_error():
+    """Audit s35 api D3: resolution_stats passed a reference of another layer
+    count on to layer_xor_areas, whose message named arguments `a` and `b`
+    that resolution_stats does not have."""
+    model = vs.SlicedModel([100], [200], [200], [0, 1], [0, 1], [0, 3],
+                           [[0, 0], [10, 0], [0, 10]])
+    ref = vs.LayerPaths([[0, 0], [10, 0], [0, 10]], [0, 3], [0, 1, 1])
+    with pytest.raises(vs.InputValueError,
+                       match=r"^`reference` must have as many layers as `model` "
+                             r"\(1\); got 2$") as info:
+        resolution_stats(model, ref)
+    assert isinstance(info.value, ValueError)
+
+
 # --- exact metrics: known answers ---------------------------------------------
 
 from hypothesis import given, settings  # noqa: E402
