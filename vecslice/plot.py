@@ -221,8 +221,8 @@ def stack(model: Any, layers: Any = None, *, offset: tuple[float, float] | None 
     n = model.n_layers
     if layers is None:
         layers = np.unique(np.linspace(0, n - 1, min(n, 8)).round().astype(int))
-    ks = [layer_index(model, int(i) if isinstance(i, np.integer) else i)
-          for i in layers]
+    ks = [layer_index(model, int(i) if isinstance(i, np.integer) else i,
+                      f"layers[{j}]") for j, i in enumerate(layers)]
     box = model.bounds()
     size = (box[1] - box[0]) / 1000.0 if box is not None else np.zeros(2)
     if offset is None:

@@ -24,7 +24,7 @@ SVG_STYLE = {
 """Default colours: part fill, part outline, open chains (warning), background."""
 
 
-def layer_index(model: Any, i: object, name: str = "layer") -> int:
+def layer_index(model: Any, i: object, name: str = "i") -> int:
     """``i`` as a layer index of ``model`` in ``[0, L)`` (negative counts from the top).
 
     Raises

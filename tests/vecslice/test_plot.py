@@ -81,8 +81,18 @@ def test_stack_shifts_each_layer_by_the_offset(demo):
         assert np.array_equal(first, demo.layer(k)[0][0] / 1000.0 + [5 * j, 2 * j])
     default = plot.stack(demo)
     assert len(default.patches) == 8  # eight layers, bottom to top
-    with pytest.raises(vs.InputValueError, match="got 500"):
+    with pytest.raises(vs.InputValueError,
+                       match=r"^`layers\[1\]` must be a layer index in "
+                             r"\[-148, 148\); got 500$"):
         plot.stack(demo, [0, 500])
+
+
+def test_a_bad_layer_is_named_by_its_argument(demo):
+    # audit s35: layer(model, i) named the index `layer`, as layer_svg did
+    with pytest.raises(vs.InputValueError,
+                       match=r"^`i` must be a layer index in \[-148, 148\); "
+                             r"got 500$"):
+        plot.layer(demo, 500)
 
 
 def test_stats_against_z(demo):

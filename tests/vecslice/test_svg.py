@@ -78,16 +78,16 @@ def test_style_and_transparent_background(demo):
 
 def test_empty_model():
     empty = vs.SlicedModel([], [], [], [0], [0], [0], np.empty((0, 2), np.int64))
-    with pytest.raises(vs.InputValueError, match=r"`layer` must be a layer index, "
+    with pytest.raises(vs.InputValueError, match=r"`i` must be a layer index, "
                        r"but the model has no layers; got 0"):
         empty.to_svg(0)
 
 
 @pytest.mark.parametrize(("i", "err", "match"), [
     (148, vs.InputValueError,
-     r"`layer` must be a layer index in \[-148, 148\); got 148"),
+     r"`i` must be a layer index in \[-148, 148\); got 148"),
     (-149, vs.InputValueError, r"got -149"),
-    (1.0, vs.InputTypeError, r"`layer` must be an integer layer index; got float 1.0"),
+    (1.0, vs.InputTypeError, r"`i` must be an integer layer index; got float 1.0"),
     (True, vs.InputTypeError, r"got bool True"),
     ("3", vs.InputTypeError, r"got str '3'"),
 ])
