@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,6 +27,16 @@ class Stitched(NamedTuple):
     """Closed loops per layer; ``.open`` holds the chains left open."""
     gaps_stitched: NDArray[np.int64]
     """Joins plus closures made in each layer, shape (L,)."""
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # a pickled or deep-copied result keeps its counts read-only, as the
+        # containers keep their arrays (a plain tuple's copy would not)
+        return _stitched, tuple(self)
+
+
+def _stitched(loops: LayerPaths, gaps_stitched: NDArray[np.int64]) -> Stitched:
+    """A :class:`Stitched` from unpickled fields, its counts frozen again."""
+    return Stitched(loops, freeze(gaps_stitched))
 
 
 def _check_loops(loops: object) -> LayerPaths:

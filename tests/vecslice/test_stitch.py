@@ -1,3 +1,6 @@
+import pickle
+from copy import deepcopy
+
 import numba
 import numpy as np
 import pytest
@@ -199,3 +202,19 @@ def test_20k_triangle_soup_is_stitched_as_the_quadratic_kernel_does():
                            for k in crowded])
     for k, want in zip(crowded, _quadratic(subset), strict=True):
         _same_layer((loops.layer(k), loops.open.layer(k), int(counts[k])), want)
+
+
+@pytest.mark.parametrize("copy", [lambda r: pickle.loads(pickle.dumps(r)),
+                                  deepcopy])
+def test_copied_result_keeps_its_counts_read_only(copy):
+    # audit s35: a pickled or deep-copied Stitched (a NamedTuple) came back with
+    # a writeable gaps_stitched, while every container stays frozen
+    chains = _layer_paths([[[(0, 0), (9, 0), (9, 9)], [(0, 9), (0, 1)]]])
+    res = stitch(_layer_paths([[]], open=chains))
+    back = copy(res)
+    assert isinstance(back, Stitched)
+    assert back.gaps_stitched.tolist() == res.gaps_stitched.tolist() == [2]
+    assert not back.gaps_stitched.flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        back.gaps_stitched[0] = 5
+    assert back.loops.n_rings == res.loops.n_rings == 1
