@@ -198,7 +198,7 @@ class _Reading:
         self.chunks: dict[str, list[NDArray[Any]]] = {"vertices": [],
                                                       "triangles": []}
         self.n = {"vertices": 0, "triangles": 0}
-        self.seen: set[str] = set()  # the lists read (only a mesh's first of each)
+        self.seen: set[str] = set()  # the lists read (a mesh has one of each)
         self.components: list[tuple[Key, NDArray[np.float64]]] = []
 
 
@@ -254,11 +254,17 @@ class _ModelReader(_Target):
             return
         grand = stack[-3] if len(stack) >= 3 else ""
         obj = self.objects[-1]
-        if local == "mesh" and parent == "object" and obj.mesh == 0:
+        if local == "mesh" and parent == "object":
+            if obj.mesh:  # its triangles would be left out without a word
+                raise self.pkg.fail(f"{obj.where} has a second <mesh>; a 3MF "
+                                    "object has one")
             obj.mesh, obj.mesh_depth = 1, len(stack)
         elif (local in _LISTS and parent == "mesh" and grand == "object"
               and obj.mesh == 1 and len(stack) == obj.mesh_depth + 1
-              and self.list is None and local not in obj.seen):
+              and self.list is None):
+            if local in obj.seen:
+                raise self.pkg.fail(f"{obj.where}: its <mesh> has a second "
+                                    f"<{local}>; a 3MF mesh has one")
             obj.seen.add(local)
             self.list, self.list_depth = local, len(stack)
             self.element, self.names = _LISTS[local][:2]

@@ -448,6 +448,18 @@ BAD_MODELS = [
      r"triangle 0 has vertices '0 2 1\.5'"),
     ("duplicate id", model(mesh_object(1) + mesh_object(1), [(1, None)]),
      r"object 1 is defined twice"),
+    # audit s35: a second list or mesh of an object was skipped without a word
+    ("second triangles", model(mesh_object(1).replace(
+        "</triangles>", '</triangles><triangles><triangle v1="0" v2="1" v3="3"/>'
+        "</triangles>"), [(1, None)]),
+     r"object 1: its <mesh> has a second <triangles>; a 3MF mesh has one"),
+    ("second vertices", model(mesh_object(1).replace(
+        "<triangles>", '<vertices><vertex x="0" y="0" z="9"/></vertices><triangles>'),
+        [(1, None)]),
+     r"object 1: its <mesh> has a second <vertices>; a 3MF mesh has one"),
+    ("second mesh", model(mesh_object(1).replace(
+        "</mesh>", "</mesh><mesh><vertices/><triangles/></mesh>"), [(1, None)]),
+     r"object 1 has a second <mesh>; a 3MF object has one"),
     ("object id", model(mesh_object("x"), [(1, None)]),
      r"an object in '/3D/3dmodel\.model' has id 'x'; expected a number"),
     ("unknown required extension",
